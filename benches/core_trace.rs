@@ -1,0 +1,37 @@
+//! `cargo bench --bench core_trace`: build time and Mrays/s of the tracing core on the
+//! generated 1M-triangle terrain, coherent and incoherent rays (medians of 5 runs).
+//! The same figures come from `propsim bench trace`, which also takes your own mesh and rays.
+
+use std::time::Instant;
+
+use propsim::cli::bench_trace::{coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, trace_figures};
+use propsim::core::{Accel, BuildQuality};
+
+fn main() {
+    let mesh = terrain(1_000_000);
+    let mut builds = Vec::new();
+    let mut accel = None;
+    for _ in 0..3 {
+        drop(accel.take());
+        let t = Instant::now();
+        accel = Some(Accel::build(&mesh, Vec::new(), BuildQuality::default()));
+        builds.push(t.elapsed().as_secs_f64());
+    }
+    let accel = accel.expect("built");
+    println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
+    println!("build: {:.3} s (median of 3)", median(builds));
+    for (name, rays) in [("coherent", coherent_rays(1 << 20)), ("incoherent", incoherent_rays(1 << 20, 1))] {
+        let t = Instant::now();
+        let f = trace_figures(&accel, &rays, 5);
+        println!(
+            "{name}: closest hit {:.2} Mrays/s, occlusion {:.2} Mrays/s (medians of 5; wall {:.2} s), checksum {:#018x}",
+            f.closest_mrays_s,
+            f.occlusion_mrays_s,
+            t.elapsed().as_secs_f64(),
+            f.checksum
+        );
+    }
+    if let Some(mb) = peak_rss_mb() {
+        println!("peak memory: {mb:.0} MB resident");
+    }
+}

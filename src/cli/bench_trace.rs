@@ -1,0 +1,306 @@
+//! `propsim bench trace`: the core's speed on a mesh and a ray file, in a form anyone can
+//! reproduce with another tracer (same mesh, same rays, same checksum rule).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context;
+use clap::Args;
+use glam::{Vec2, Vec3};
+
+use crate::core::rng::{stream, uniform};
+use crate::core::sampling::uniform_sphere;
+use crate::core::{Accel, BuildQuality, Ray, TriangleMesh};
+use crate::scene::obj::load_obj;
+
+#[derive(Args, Debug)]
+pub struct TraceArgs {
+    /// Mesh to trace against (OBJ). Without it a terrain of --triangles triangles is generated.
+    pub mesh: Option<PathBuf>,
+    /// Ray file: little-endian f32, 6 per ray (origin xyz, direction xyz). Without it,
+    /// coherent and incoherent rays are generated.
+    #[arg(long)]
+    pub rays: Option<PathBuf>,
+    /// Triangles in the generated terrain.
+    #[arg(long, default_value_t = 1_000_000)]
+    pub triangles: usize,
+    /// Rays per generated set.
+    #[arg(long, default_value_t = 1 << 20)]
+    pub ray_count: usize,
+    /// Timed repetitions; the median is reported.
+    #[arg(long, default_value_t = 5)]
+    pub repeat: usize,
+    /// Write the generated mesh (OBJ) and ray sets (PREFIX_coherent.bin, PREFIX_incoherent.bin)
+    /// so other tracers can be run on the same input.
+    #[arg(long)]
+    pub write_inputs: Option<PathBuf>,
+}
+
+/// Reads a ray file: little-endian f32, 6 per ray. Directions are normalised.
+pub fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
+    let bytes = std::fs::read(path).map_err(|e| crate::scene::SceneError::io(path, &e))?;
+    anyhow::ensure!(
+        bytes.len() % 24 == 0 && !bytes.is_empty(),
+        "{}: a ray file holds 24 bytes per ray (6 little-endian f32), found {} bytes",
+        path.display(),
+        bytes.len()
+    );
+    let mut rays = Vec::with_capacity(bytes.len() / 24);
+    for (i, chunk) in bytes.chunks_exact(24).enumerate() {
+        let f: Vec<f32> = chunk
+            .chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect();
+        let (o, d) = (Vec3::new(f[0], f[1], f[2]), Vec3::new(f[3], f[4], f[5]));
+        anyhow::ensure!(
+            o.is_finite() && d.is_finite() && d.length_squared() > 0.0,
+            "{}: ray {i} is not finite or has a zero direction",
+            path.display()
+        );
+        rays.push(Ray::new(o, d.normalize()));
+    }
+    Ok(rays)
+}
+
+/// Writes rays in the format [`read_rays`] reads.
+pub fn write_rays(path: &Path, rays: &[Ray]) -> anyhow::Result<()> {
+    let mut bytes = Vec::with_capacity(rays.len() * 24);
+    for r in rays {
+        for v in r.origin.to_array().into_iter().chain(r.dir.to_array()) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Terrain height (m) at (x, y): a few octaves of smooth waves over 1 km.
+fn terrain_height(x: f32, y: f32) -> f32 {
+    30.0 * (x * 0.006).sin() * (y * 0.005).cos()
+        + 12.0 * (x * 0.021 + 1.3).sin() * (y * 0.017 + 0.4).sin()
+        + 4.0 * (x * 0.07 + y * 0.05).sin()
+        + 1.5 * (x * 0.23).cos() * (y * 0.19).sin()
+}
+
+/// A square 1 km terrain height field with about `triangles` triangles.
+pub fn terrain(triangles: usize) -> TriangleMesh {
+    let cells = ((triangles as f64 / 2.0).sqrt().round() as usize).max(1);
+    let n = cells + 1;
+    let size = 1000.0;
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("terrain");
+    mesh.positions = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k % n, k / n);
+            let (x, y) = (
+                i as f32 / cells as f32 * size - 500.0,
+                j as f32 / cells as f32 * size - 500.0,
+            );
+            Vec3::new(x, y, terrain_height(x, y))
+        })
+        .collect();
+    for j in 0..cells {
+        for i in 0..cells {
+            let a = (j * n + i) as u32;
+            let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32);
+            mesh.triangles.push([a, b, c]);
+            mesh.triangles.push([a, c, d]);
+        }
+    }
+    mesh.surface_of_triangle = vec![s; mesh.triangles.len()];
+    mesh
+}
+
+/// Primary rays of a pinhole camera looking down at the terrain at 45 degrees: coherent.
+pub fn coherent_rays(count: usize) -> Vec<Ray> {
+    let side = (count as f64).sqrt().ceil() as usize;
+    let eye = Vec3::new(-700.0, -700.0, 600.0);
+    let forward = (Vec3::new(0.0, 0.0, 0.0) - eye).normalize();
+    let right = forward.cross(Vec3::Z).normalize();
+    let up = right.cross(forward);
+    let half = (35f32.to_radians()).tan();
+    (0..count)
+        .map(|k| {
+            let (i, j) = (k % side, k / side);
+            let u = ((i as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            let v = ((j as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            Ray::new(eye, (forward + u * right + v * up).normalize())
+        })
+        .collect()
+}
+
+/// Rays from random points 1-50 m above the terrain in uniformly random directions:
+/// incoherent, like diffuse bounces or an acoustic/radio launcher after a few reflections.
+pub fn incoherent_rays(count: usize, seed: u64) -> Vec<Ray> {
+    (0..count)
+        .map(|k| {
+            let mut r = stream(seed, 0xbe7c, k as u64);
+            let x = uniform(&mut r) * 900.0 - 450.0;
+            let y = uniform(&mut r) * 900.0 - 450.0;
+            let z = terrain_height(x, y) + 1.0 + 49.0 * uniform(&mut r);
+            let d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+            Ray::new(Vec3::new(x, y, z), d)
+        })
+        .collect()
+}
+
+fn write_obj(path: &Path, mesh: &TriangleMesh) -> anyhow::Result<()> {
+    use std::io::Write;
+    let f = std::fs::File::create(path)
+        .with_context(|| format!("{}: cannot create", path.display()))?;
+    let mut w = std::io::BufWriter::new(f);
+    for p in &mesh.positions {
+        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+    }
+    for t in &mesh.triangles {
+        writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+    }
+    Ok(())
+}
+
+/// Median of a list of seconds.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Peak resident memory of this process in MB (Linux `VmHWM`), if known.
+pub fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Result of tracing one ray set.
+pub struct TraceFigures {
+    pub closest_mrays_s: f64,
+    pub occlusion_mrays_s: f64,
+    pub hits: usize,
+    pub occluded: usize,
+    /// Sum over rays of (hit triangle index + 1), 0 for a miss, wrapping at 2^64.
+    pub checksum: u64,
+}
+
+/// Traces `rays` `repeat` times for closest hits and for occlusion, reporting medians.
+pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures {
+    let mut closest_s = Vec::new();
+    let mut occl_s = Vec::new();
+    let mut checksum = 0u64;
+    let mut hits = 0;
+    let mut occluded = 0;
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        let tri = accel.closest_triangles(rays);
+        closest_s.push(t.elapsed().as_secs_f64());
+        checksum = tri.iter().fold(0u64, |acc, h| {
+            acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1))
+        });
+        hits = tri.iter().filter(|h| h.is_some()).count();
+        let t = Instant::now();
+        let occ = accel.occluded_batch(rays);
+        occl_s.push(t.elapsed().as_secs_f64());
+        occluded = occ.iter().filter(|&&o| o).count();
+    }
+    let n = rays.len() as f64;
+    TraceFigures {
+        closest_mrays_s: n / median(closest_s) / 1e6,
+        occlusion_mrays_s: n / median(occl_s) / 1e6,
+        hits,
+        occluded,
+        checksum,
+    }
+}
+
+pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (1..=100_000_000).contains(&args.triangles),
+        "--triangles {}: must be between 1 and 10^8",
+        args.triangles
+    );
+    anyhow::ensure!(
+        (1..=100_000_000).contains(&args.ray_count),
+        "--ray-count {}: must be between 1 and 10^8",
+        args.ray_count
+    );
+    let (mesh, label) = match &args.mesh {
+        Some(p) => {
+            let obj = load_obj(p)?;
+            anyhow::ensure!(
+                obj.mesh.triangle_count() > 0,
+                "{}: the mesh has no usable triangles",
+                p.display()
+            );
+            (obj.mesh, p.display().to_string())
+        }
+        None => (terrain(args.triangles), "generated terrain".to_string()),
+    };
+    let sets: Vec<(String, Vec<Ray>)> = match &args.rays {
+        Some(p) => vec![(p.display().to_string(), read_rays(p)?)],
+        None if args.mesh.is_none() => vec![
+            ("coherent".into(), coherent_rays(args.ray_count)),
+            ("incoherent".into(), incoherent_rays(args.ray_count, 1)),
+        ],
+        None => {
+            let (lo, hi) = mesh.bounds().unwrap_or_default();
+            let c = 0.5 * (lo + hi);
+            let rays = incoherent_rays(args.ray_count, 1)
+                .into_iter()
+                .map(|r| {
+                    Ray::new(
+                        c + (r.origin - Vec3::new(0.0, 0.0, 25.0)) * (hi - lo) / 1000.0,
+                        r.dir,
+                    )
+                })
+                .collect();
+            vec![("random".into(), rays)]
+        }
+    };
+    if let Some(prefix) = &args.write_inputs {
+        write_obj(&prefix.with_extension("obj"), &mesh)?;
+        for (name, rays) in &sets {
+            let p = PathBuf::from(format!("{}_{name}.bin", prefix.display()));
+            write_rays(&p, rays)?;
+            println!("wrote {}", p.display());
+        }
+    }
+    println!("mesh:        {label}, {} triangles", mesh.triangle_count());
+    println!("threads:     {}", rayon::current_num_threads());
+    let mut builds = Vec::new();
+    let mut accel = None;
+    for _ in 0..args.repeat.clamp(1, 3) {
+        drop(accel.take());
+        let t = Instant::now();
+        accel = Some(Accel::build(&mesh, Vec::new(), BuildQuality::default()));
+        builds.push(t.elapsed().as_secs_f64());
+    }
+    let accel = accel.expect("built at least once");
+    println!(
+        "build:       {:.3} s (median of {}), BVH + triangles {:.1} MB",
+        median(builds.clone()),
+        builds.len(),
+        accel.mesh.memory_bytes() as f64 / 1e6
+    );
+    for (name, rays) in &sets {
+        let f = trace_figures(&accel, rays, args.repeat);
+        println!(
+            "{name:<12} {} rays: closest hit {:.2} Mrays/s, occlusion {:.2} Mrays/s, hits {}, occluded {}, checksum {:#018x}",
+            rays.len(),
+            f.closest_mrays_s,
+            f.occlusion_mrays_s,
+            f.hits,
+            f.occluded,
+            f.checksum
+        );
+    }
+    if let Some(mb) = peak_rss_mb() {
+        println!("peak memory: {mb:.0} MB resident");
+    }
+    Ok(())
+}

@@ -1,0 +1,89 @@
+//! The `propsim` command line: argument parsing and dispatch. Each subcommand lives in its
+//! own file; all report errors as one line naming the file and the problem.
+
+pub mod bench_trace;
+pub mod info;
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+/// propsim: one ray-tracing core for images, room acoustics and radio coverage.
+#[derive(Parser, Debug)]
+#[command(name = "propsim", version, about, long_about = None)]
+pub struct Cli {
+    /// Worker threads (default: all cores).
+    #[arg(long, global = true)]
+    pub threads: Option<usize>,
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Geometry and material report: triangles, bounds, areas, volume, closedness, and
+    /// whether every source and receiver is inside the room.
+    Info(info::InfoArgs),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(BenchCommand),
+}
+
+#[derive(Subcommand, Debug)]
+pub enum BenchCommand {
+    /// Trace a ray file (or generated rays) against a mesh: build time, closest-hit and
+    /// occlusion Mrays/s, and a checksum of the hit triangle indices.
+    Trace(bench_trace::TraceArgs),
+}
+
+/// Runs the command line; the error, if any, is for `main` to print on one line.
+pub fn run(cli: Cli) -> anyhow::Result<()> {
+    if let Some(n) = cli.threads {
+        anyhow::ensure!(
+            (1..=4096).contains(&n),
+            "--threads {n}: must be between 1 and 4096"
+        );
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()?;
+    }
+    match cli.command {
+        Command::Info(args) => info::run(&args),
+        Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
+    }
+}
+
+/// Parses "x,y,z" into three finite numbers.
+pub fn parse_point(s: &str) -> Result<[f32; 3], String> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    if parts.len() != 3 {
+        return Err(format!("\"{s}\": expected X,Y,Z"));
+    }
+    let mut out = [0.0; 3];
+    for (o, p) in out.iter_mut().zip(&parts) {
+        let v: f32 = p.parse().map_err(|_| format!("\"{p}\" is not a number"))?;
+        if !v.is_finite() {
+            return Err(format!("\"{p}\" is not finite"));
+        }
+        *o = v;
+    }
+    Ok(out)
+}
+
+/// Default output directory of every simulator.
+pub fn default_out_dir() -> PathBuf {
+    PathBuf::from("out")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_parse_and_reject_garbage() {
+        assert_eq!(parse_point("1, 2.5,-3").unwrap(), [1.0, 2.5, -3.0]);
+        assert!(parse_point("1,2").is_err());
+        assert!(parse_point("1,2,nan").is_err());
+        assert!(parse_point("a,b,c").is_err());
+    }
+}

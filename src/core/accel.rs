@@ -1,0 +1,414 @@
+//! Acceleration structures: an obvhs compressed wide BVH (CWBVH) over a mesh's triangles,
+//! and a set of analytic spheres, with closest-hit, occlusion, all-hits and batch queries.
+//!
+//! Instancing: [`MeshBvh`] is self-contained in its own coordinate frame (triangles reordered
+//! to the BVH leaf order, with a map back to mesh indices). Placing one mesh many times needs
+//! only a top-level BVH over instance bounds whose leaves transform the ray into a
+//! `MeshBvh`'s frame (obvhs' `ray_traverse_tlas_blas`); `Accel` is the place that grows it.
+
+use std::time::Duration;
+
+use glam::{Vec2, Vec3, Vec3A};
+use obvhs::aabb::Aabb;
+use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::ray::{Ray as BvhRay, RayHit};
+use obvhs::{Boundable, BvhBuildParams};
+use rayon::prelude::*;
+
+use super::hit::{Hit, PrimitiveKind};
+use super::mesh::TriangleMesh;
+use super::ray::Ray;
+use super::sphere::Sphere;
+use super::triangle::{RayShear, TriangleRt};
+
+/// BVH build quality presets, from obvhs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BuildQuality {
+    Fast,
+    /// obvhs' medium preset: about Embree's build time with faster traversal.
+    #[default]
+    Medium,
+    High,
+}
+
+impl BuildQuality {
+    pub const ALL: [BuildQuality; 3] =
+        [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
+
+    fn params(self) -> BvhBuildParams {
+        let mut p = match self {
+            BuildQuality::Fast => BvhBuildParams::fast_build(),
+            BuildQuality::Medium => BvhBuildParams::medium_build(),
+            BuildQuality::High => BvhBuildParams::slow_build(),
+        };
+        // Spatial pre-splits duplicate references; we keep one reference per triangle.
+        p.pre_split = false;
+        p.max_prims_per_leaf = 3;
+        p
+    }
+}
+
+struct Bounds(Aabb);
+
+/// Relative padding of primitive bounds. obvhs' slab test has no rounding margin, so a ray
+/// grazing a flat node box (an axis-aligned wall) could be culled by one ulp and miss a hit
+/// the triangle test would find; a few ulps of padding keep traversal conservative
+/// (cf. Ize 2013, "Robust BVH Ray Traversal").
+const BOUNDS_PADDING: f32 = 1.0e-6;
+
+fn padded_bounds(lo: Vec3, hi: Vec3) -> Bounds {
+    let pad = Vec3::splat(BOUNDS_PADDING * (1.0 + lo.abs().max(hi.abs()).max_element()));
+    Bounds(Aabb::new((lo - pad).into(), (hi + pad).into()))
+}
+
+impl Boundable for Bounds {
+    fn aabb(&self) -> Aabb {
+        self.0
+    }
+}
+
+/// The obvhs ray. Adding +0.0 turns -0.0 direction components into +0.0: obvhs picks slab
+/// sides by `dir < 0` but inverts -0.0 to a negative number, which made axis-aligned rays
+/// (e.g. straight down, `-Vec3::Z`) miss every flat box.
+#[inline]
+fn to_bvh_ray(ray: &Ray) -> BvhRay {
+    let dir = Vec3A::from(ray.dir) + Vec3A::ZERO;
+    BvhRay::new(ray.origin.into(), dir, ray.t_min, ray.t_max)
+}
+
+/// A CWBVH over one mesh's triangles.
+pub struct MeshBvh {
+    bvh: CwBvh,
+    /// Triangles in BVH leaf order.
+    tris: Vec<TriangleRt>,
+    /// Mesh triangle index of each entry of `tris`.
+    mesh_index: Vec<u32>,
+    /// Surface id of each entry of `tris`.
+    surface: Vec<u32>,
+}
+
+impl MeshBvh {
+    pub fn build(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
+        let n = mesh.triangle_count();
+        if n == 0 {
+            return Self {
+                bvh: CwBvh::default(),
+                tris: Vec::new(),
+                mesh_index: Vec::new(),
+                surface: Vec::new(),
+            };
+        }
+        let bounds: Vec<Bounds> = (0..n)
+            .into_par_iter()
+            .map(|i| {
+                let [a, b, c] = mesh.corners(i);
+                padded_bounds(a.min(b).min(c), a.max(b).max(c))
+            })
+            .collect();
+        let mut bvh = build_cwbvh(&bounds, quality.params(), &mut Duration::default());
+        drop(bounds);
+        // The BVH keeps its own copy of the order; we keep ours next to the triangles.
+        let mesh_index = std::mem::take(&mut bvh.primitive_indices);
+        bvh.primitive_indices = Vec::new();
+        let ordered: Vec<TriangleRt> = mesh_index
+            .par_iter()
+            .map(|&i| mesh.triangle_rt(i as usize))
+            .collect();
+        let surface = mesh_index
+            .iter()
+            .map(|&i| mesh.surface_of_triangle[i as usize])
+            .collect();
+        Self {
+            bvh,
+            tris: ordered,
+            mesh_index,
+            surface,
+        }
+    }
+
+    /// Bytes held by the structure (nodes, triangles and index maps).
+    pub fn memory_bytes(&self) -> usize {
+        self.bvh.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
+            + self.tris.len() * std::mem::size_of::<TriangleRt>()
+            + self.mesh_index.len() * 8
+    }
+
+    /// Leaf-order slot and distance of the closest hit.
+    #[inline]
+    fn closest_slot(&self, ray: &Ray) -> Option<(usize, f32)> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let mut rh = RayHit::none();
+        let tris = &self.tris;
+        let shear = RayShear::new(ray.origin, ray.dir);
+        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
+            tris[id].intersect_t(&shear, r.tmin, r.tmax)
+        });
+        hit.then_some((rh.primitive_id as usize, rh.t))
+    }
+
+    fn make_hit(&self, slot: usize, t: f32, ray: &Ray) -> Hit {
+        let tri = &self.tris[slot];
+        let uv = tri
+            .intersect_sheared(
+                &RayShear::new(ray.origin, ray.dir),
+                f32::NEG_INFINITY,
+                f32::INFINITY,
+            )
+            .map_or(Vec2::ZERO, |(_, uv)| uv);
+        let normal = tri.normal();
+        Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            barycentric: uv,
+            primitive: self.mesh_index[slot],
+            kind: PrimitiveKind::Triangle,
+            surface: self.surface[slot],
+            front_face: normal.dot(ray.dir) < 0.0,
+        }
+    }
+
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.closest_slot(ray)
+            .map(|(slot, t)| self.make_hit(slot, t, ray))
+    }
+
+    /// Mesh index of the closest triangle hit, without building a full [`Hit`].
+    pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
+        self.closest_slot(ray)
+            .map(|(slot, t)| (self.mesh_index[slot], t))
+    }
+
+    /// True when any triangle lies on the segment `(t_min, t_max]`.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        if self.tris.is_empty() {
+            return false;
+        }
+        let tris = &self.tris;
+        let shear = RayShear::new(ray.origin, ray.dir);
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| {
+            tris[id].intersect_t(&shear, r.tmin, r.tmax)
+        })
+    }
+
+    /// Calls `f` for every triangle hit on the ray, in no particular order.
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
+        if self.tris.is_empty() {
+            return;
+        }
+        let shear = RayShear::new(ray.origin, ray.dir);
+        self.bvh.ray_traverse_anyhit(to_bvh_ray(ray), |r, id| {
+            let t = self.tris[id].intersect_t(&shear, r.tmin, r.tmax);
+            if t.is_finite() {
+                f(self.make_hit(id, t, ray));
+            }
+        });
+    }
+}
+
+/// Below this many spheres a linear scan beats a BVH.
+const SPHERE_LINEAR_LIMIT: usize = 16;
+
+/// Analytic spheres, with a CWBVH when there are many.
+#[derive(Default)]
+pub struct SphereSet {
+    pub spheres: Vec<Sphere>,
+    bvh: Option<CwBvh>,
+}
+
+impl SphereSet {
+    pub fn new(spheres: Vec<Sphere>) -> Self {
+        let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
+            let bounds: Vec<Bounds> = spheres
+                .iter()
+                .map(|s| padded_bounds(s.aabb_min(), s.aabb_max()))
+                .collect();
+            build_cwbvh(
+                &bounds,
+                BvhBuildParams::medium_build(),
+                &mut Duration::default(),
+            )
+        });
+        Self { spheres, bvh }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.spheres.is_empty()
+    }
+
+    /// Calls `f(index)` for every sphere whose bounds the ray segment may cross.
+    fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
+        match &self.bvh {
+            None => (0..self.spheres.len()).for_each(f),
+            Some(bvh) => bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| {
+                f(bvh.primitive_indices[id] as usize)
+            }),
+        }
+    }
+
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let mut best: Option<Hit> = None;
+        let mut r = *ray;
+        self.candidates(ray, |i| {
+            let s = &self.spheres[i];
+            if let Some((t, n, uv)) = s.intersect(&r) {
+                r.t_max = t;
+                best = Some(Hit {
+                    t,
+                    point: ray.at(t),
+                    normal: n,
+                    barycentric: uv,
+                    primitive: i as u32,
+                    kind: PrimitiveKind::Sphere,
+                    surface: s.surface,
+                    front_face: n.dot(ray.dir) < 0.0,
+                });
+            }
+        });
+        best
+    }
+
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let mut any = false;
+        self.candidates(ray, |i| any |= self.spheres[i].intersect(ray).is_some());
+        any
+    }
+
+    /// Calls `f(index, chord_length)` for every sphere the segment passes through.
+    pub fn for_each_crossing(&self, ray: &Ray, mut f: impl FnMut(usize, f32)) {
+        self.candidates(ray, |i| {
+            let chord = self.spheres[i].chord_length(ray);
+            if chord > 0.0 {
+                f(i, chord);
+            }
+        });
+    }
+}
+
+/// Everything a simulator traces against: one triangle mesh and a set of opaque spheres.
+pub struct Accel {
+    pub mesh: MeshBvh,
+    pub spheres: SphereSet,
+}
+
+/// Rays per rayon task in the batch queries: large enough to amortise scheduling, small
+/// enough to balance two to many cores.
+const BATCH_CHUNK: usize = 4096;
+
+impl Accel {
+    pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
+        Self {
+            mesh: MeshBvh::build(mesh, quality),
+            spheres: SphereSet::new(spheres),
+        }
+    }
+
+    /// The closest triangle or sphere hit in `(t_min, t_max]`.
+    pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        let tri = self.mesh.closest_hit(ray);
+        if self.spheres.is_empty() {
+            return tri;
+        }
+        let mut r = *ray;
+        if let Some(h) = &tri {
+            r.t_max = h.t;
+        }
+        self.spheres.closest_hit(&r).or(tri)
+    }
+
+    /// True when anything blocks the segment `(t_min, t_max]`: the cheap shadow-ray query.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.mesh.occluded(ray) || self.spheres.occluded(ray)
+    }
+
+    /// Closest hits of many rays in parallel; the result is in input order whatever the
+    /// thread count.
+    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
+        map_in_coherent_order(rays, |r| self.closest_hit(r))
+    }
+
+    /// Closest triangle (mesh index, distance) of many rays in parallel, in input order: the
+    /// lean query for benchmarks and launchers that look up the rest themselves.
+    pub fn closest_triangles(&self, rays: &[Ray]) -> Vec<Option<(u32, f32)>> {
+        map_in_coherent_order(rays, |r| self.mesh.closest_triangle(r))
+    }
+
+    /// Occlusion of many segments in parallel, in input order.
+    pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
+        map_in_coherent_order(rays, |r| self.occluded(r))
+    }
+
+    /// Count of surfaces crossed by the ray: the parity test for "is the origin inside".
+    pub fn crossings(&self, ray: &Ray) -> usize {
+        let mut ts: Vec<f32> = Vec::new();
+        self.mesh.for_each_hit(ray, |h| ts.push(h.t));
+        // A ray through a shared edge reports both triangles at the same distance: count once.
+        ts.sort_by(f32::total_cmp);
+        ts.dedup_by(|a, b| (*a - *b).abs() <= 1e-5 * b.abs().max(1.0));
+        ts.len()
+    }
+}
+
+/// Spreads the low 10 bits of `v` to every third bit (Morton encoding).
+fn spread_bits(v: u32) -> u64 {
+    let mut x = u64::from(v & 0x3ff);
+    x = (x | (x << 16)) & 0x0300_00ff;
+    x = (x | (x << 8)) & 0x0300_f00f;
+    x = (x | (x << 4)) & 0x030c_30c3;
+    (x | (x << 2)) & 0x0924_9249
+}
+
+/// A tracing order that groups rays by direction octant, then by origin along a Morton curve
+/// (the ray-reordering idea of Pharr et al. 1997 and Garanzha & Loop 2010): rays that visit the
+/// same BVH nodes are traced one after the other.
+pub fn coherent_order(rays: &[Ray]) -> Vec<u32> {
+    let (lo, hi) = rays.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
+    let scale = 1023.0 / (hi - lo).max(Vec3::splat(1e-12));
+    let mut keyed: Vec<(u64, u32)> = rays
+        .par_iter()
+        .enumerate()
+        .map(|(i, r)| {
+            let q = ((r.origin - lo) * scale).as_uvec3();
+            let octant = u64::from(r.dir.x < 0.0) | u64::from(r.dir.y < 0.0) << 1 | u64::from(r.dir.z < 0.0) << 2;
+            let morton = spread_bits(q.x) | spread_bits(q.y) << 1 | spread_bits(q.z) << 2;
+            ((octant << 30) | morton, i as u32)
+        })
+        .collect();
+    keyed.par_sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// `f` of every ray, computed in parallel in [`coherent_order`] and returned in input order.
+/// The order changes speed only: each result depends on its own ray alone.
+fn map_in_coherent_order<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&Ray) -> T + Sync) -> Vec<T> {
+    let order = coherent_order(rays);
+    let mut sorted = vec![T::default(); rays.len()];
+    sorted.par_chunks_mut(BATCH_CHUNK).zip(order.par_chunks(BATCH_CHUNK)).for_each(|(o, idx)| {
+        for (o, &i) in o.iter_mut().zip(idx) {
+            *o = f(&rays[i as usize]);
+        }
+    });
+    let mut out = vec![T::default(); rays.len()];
+    for (value, &i) in sorted.into_iter().zip(&order) {
+        out[i as usize] = value;
+    }
+    out
+}
+
+/// Point inside a closed mesh by majority vote of ray parity along three fixed directions
+/// (irrational-ish so that they rarely graze edges).
+pub fn point_inside(accel: &Accel, p: Vec3) -> bool {
+    const DIRS: [Vec3; 3] = [
+        Vec3::new(0.5773, 0.5774, 0.5776),
+        Vec3::new(-0.2673, 0.5345, 0.8018),
+        Vec3::new(0.7072, -0.6, -0.3741),
+    ];
+    let votes = DIRS
+        .iter()
+        .filter(|d| accel.crossings(&Ray::new(p, d.normalize())) % 2 == 1)
+        .count();
+    votes >= 2
+}

@@ -1,0 +1,19 @@
+//! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams.
+//! It knows nothing of light, sound or radio.
+
+pub mod accel;
+pub mod hit;
+pub mod mesh;
+pub mod ray;
+pub mod rng;
+pub mod sampling;
+pub mod spectrum;
+pub mod sphere;
+pub mod triangle;
+
+pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
+pub use hit::{Hit, PrimitiveKind, SurfaceId};
+pub use mesh::TriangleMesh;
+pub use ray::Ray;
+pub use sphere::Sphere;
+pub use triangle::TriangleRt;

@@ -1,0 +1,7 @@
+//! propsim: one ray-tracing core, three simulators (images, room acoustics, radio coverage)
+//! over the same OBJ scene and the same named materials.
+#![forbid(unsafe_code)]
+
+pub mod cli;
+pub mod core;
+pub mod scene;

@@ -1,0 +1,268 @@
+//! Mesh checks: closedness and orientation (edge use counts), area per surface, and the
+//! enclosed air volume by the divergence theorem per connected component.
+
+use std::collections::HashMap;
+
+use glam::{DVec3, Vec3};
+
+use crate::core::TriangleMesh;
+
+/// Topology and measures of a mesh. Vertices are welded by exact position first, so meshes
+/// that repeat vertices per object or per group are judged by their geometry.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MeshReport {
+    pub triangles: usize,
+    pub distinct_vertices: usize,
+    pub edges: usize,
+    /// Edges used by exactly one triangle (holes, open sheets).
+    pub open_edges: usize,
+    /// Edges used by more than two triangles (internal sheets, T-shaped joins).
+    pub over_shared_edges: usize,
+    /// Two-triangle edges whose triangles run the edge in the same direction (flipped faces).
+    pub misoriented_edges: usize,
+    pub total_area_m2: f64,
+    /// Area per surface id, square metres.
+    pub area_by_surface_m2: Vec<f64>,
+    /// Components of triangles connected through two-triangle edges.
+    pub components: Vec<ComponentReport>,
+    /// Sum of signed tetrahedron volumes over all triangles (divergence theorem), m^3.
+    pub divergence_volume_m3: f64,
+    /// Volume of air: the largest closed component (the room shell) minus the closed
+    /// components inside it (obstacles), m^3; `None` when no component is closed.
+    pub air_volume_m3: Option<f64>,
+}
+
+/// One connected component.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ComponentReport {
+    pub triangles: usize,
+    pub area_m2: f64,
+    /// Signed volume; positive when normals point outward of the enclosed region.
+    pub signed_volume_m3: f64,
+    /// Every edge of the component is shared by exactly two of its triangles.
+    pub closed: bool,
+    pub bounds: (Vec3, Vec3),
+}
+
+impl MeshReport {
+    pub fn is_closed(&self) -> bool {
+        self.triangles > 0 && self.open_edges == 0 && self.over_shared_edges == 0
+    }
+
+    pub fn is_consistently_oriented(&self) -> bool {
+        self.misoriented_edges == 0
+    }
+}
+
+fn find(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        parent[i as usize] = parent[parent[i as usize] as usize];
+        i = parent[i as usize];
+    }
+    i
+}
+
+/// Computes the [`MeshReport`] of `mesh`.
+pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
+    // Weld by exact coordinates (+0.0 and -0.0 alike).
+    let key = |p: Vec3| (p + Vec3::ZERO).to_array().map(f32::to_bits);
+    let mut weld: HashMap<[u32; 3], u32> = HashMap::new();
+    let vid: Vec<u32> = mesh
+        .positions
+        .iter()
+        .map(|&p| {
+            let n = weld.len() as u32;
+            *weld.entry(key(p)).or_insert(n)
+        })
+        .collect();
+
+    let n = mesh.triangle_count();
+    // Undirected edge -> (use count, sum of directions: +1 for a->b with a<b, -1 otherwise,
+    // first triangle).
+    let mut edges: HashMap<(u32, u32), (u32, i32, u32)> = HashMap::with_capacity(n * 3 / 2 + 1);
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let v = tri.map(|i| vid[i as usize]);
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            let (lo, hi, dir) = if a < b { (a, b, 1) } else { (b, a, -1) };
+            let e = edges.entry((lo, hi)).or_insert((0, 0, t as u32));
+            e.0 += 1;
+            e.1 += dir;
+        }
+    }
+
+    let mut parent: Vec<u32> = (0..n as u32).collect();
+    let mut report = MeshReport {
+        triangles: n,
+        distinct_vertices: weld.len(),
+        edges: edges.len(),
+        area_by_surface_m2: vec![0.0; mesh.surface_names.len()],
+        ..Default::default()
+    };
+    // Second pass to union the two triangles of each manifold edge.
+    let mut first_of: HashMap<(u32, u32), u32> = HashMap::with_capacity(edges.len());
+    for (t, tri) in mesh.triangles.iter().enumerate() {
+        let v = tri.map(|i| vid[i as usize]);
+        for k in 0..3 {
+            let (a, b) = (v[k], v[(k + 1) % 3]);
+            let e = (a.min(b), a.max(b));
+            if edges[&e].0 == 2 {
+                match first_of.get(&e) {
+                    Some(&other) => {
+                        let (ra, rb) = (find(&mut parent, other), find(&mut parent, t as u32));
+                        parent[ra as usize] = rb;
+                    }
+                    None => {
+                        first_of.insert(e, t as u32);
+                    }
+                }
+            }
+        }
+    }
+    let mut component_open: HashMap<u32, bool> = HashMap::new();
+    for (&(lo, _), &(count, dir_sum, first)) in &edges {
+        let _ = lo;
+        match count {
+            1 => report.open_edges += 1,
+            2 if dir_sum != 0 => report.misoriented_edges += 1,
+            2 => {}
+            _ => report.over_shared_edges += 1,
+        }
+        if count != 2 {
+            let root = find(&mut parent, first);
+            component_open.insert(root, true);
+        }
+    }
+
+    let mut comps: HashMap<u32, ComponentReport> = HashMap::new();
+    for t in 0..n {
+        let [a, b, c] = mesh.corners(t).map(|p| p.as_dvec3());
+        let area = 0.5 * (b - a).cross(c - a).length();
+        let vol = a.dot(b.cross(c)) / 6.0;
+        report.total_area_m2 += area;
+        report.divergence_volume_m3 += vol;
+        if let Some(s) = report
+            .area_by_surface_m2
+            .get_mut(mesh.surface_of_triangle[t] as usize)
+        {
+            *s += area;
+        }
+        let root = find(&mut parent, t as u32);
+        let lo_hi = mesh.corners(t);
+        let c = comps.entry(root).or_insert_with(|| ComponentReport {
+            closed: !component_open.get(&root).copied().unwrap_or(false),
+            bounds: (lo_hi[0], lo_hi[0]),
+            ..Default::default()
+        });
+        c.triangles += 1;
+        c.area_m2 += area;
+        c.signed_volume_m3 += vol;
+        for p in lo_hi {
+            c.bounds = (c.bounds.0.min(p), c.bounds.1.max(p));
+        }
+    }
+    let mut components: Vec<ComponentReport> = comps.into_values().collect();
+    components.sort_by(|a, b| {
+        b.signed_volume_m3
+            .abs()
+            .total_cmp(&a.signed_volume_m3.abs())
+            .then(b.triangles.cmp(&a.triangles))
+    });
+    // A closed component with open edges elsewhere in the mesh can still bound air.
+    report.air_volume_m3 = components.iter().find(|c| c.closed).map(|shell| {
+        let inside = |c: &ComponentReport| {
+            c.bounds.0.cmpge(shell.bounds.0).all() && c.bounds.1.cmple(shell.bounds.1).all()
+        };
+        let obstacles: f64 = components
+            .iter()
+            .filter(|c| c.closed && !std::ptr::eq(*c, shell) && inside(c))
+            .map(|c| c.signed_volume_m3.abs())
+            .sum();
+        shell.signed_volume_m3.abs() - obstacles
+    });
+    report.components = components;
+    report
+}
+
+/// Signed volume of a closed, outward-oriented triangle soup (divergence theorem), m^3.
+pub fn signed_volume(mesh: &TriangleMesh) -> f64 {
+    (0..mesh.triangle_count())
+        .map(|t| {
+            let [a, b, c]: [DVec3; 3] = mesh.corners(t).map(|p| p.as_dvec3());
+            a.dot(b.cross(c)) / 6.0
+        })
+        .sum()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn room_with_obstacle() -> TriangleMesh {
+        let mut m = TriangleMesh::default();
+        let wall = m.surface_id("wall");
+        let block = m.surface_id("block");
+        m.push_box(Vec3::ZERO, Vec3::new(10.0, 8.0, 3.0), 2, wall);
+        // An obstacle inside, wound like the walls (normals into the obstacle).
+        let start = m.triangle_count();
+        m.push_box(Vec3::new(1.0, 1.0, 0.0), Vec3::new(2.0, 3.0, 1.0), 1, block);
+        for t in &mut m.triangles[start..] {
+            t.swap(1, 2);
+        }
+        m
+    }
+
+    #[test]
+    fn closed_box_volume_area_and_topology() {
+        let mut m = TriangleMesh::default();
+        let s = m.surface_id("wall");
+        m.push_box(Vec3::ZERO, Vec3::new(10.0, 8.0, 3.0), 3, s);
+        let r = analyze(&m);
+        assert!(r.is_closed() && r.is_consistently_oriented());
+        assert!((r.total_area_m2 - 268.0).abs() < 1e-6);
+        assert!((r.air_volume_m3.unwrap() - 240.0).abs() < 1e-6);
+        assert_eq!(r.components.len(), 1);
+        assert!(r.components[0].signed_volume_m3 > 0.0);
+        assert!((signed_volume(&m) - 240.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn obstacles_are_subtracted_from_air() {
+        let r = analyze(&room_with_obstacle());
+        assert!(r.is_closed());
+        assert_eq!(r.components.len(), 2);
+        assert!((r.air_volume_m3.unwrap() - (240.0 - 2.0)).abs() < 1e-6);
+        assert!((r.area_by_surface_m2[1] - 10.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn detects_holes_flips_and_over_shared_edges() {
+        let mut m = TriangleMesh::default();
+        let s = m.surface_id("wall");
+        m.push_box(Vec3::ZERO, Vec3::ONE, 1, s);
+        let mut holed = m.clone();
+        holed.triangles.pop();
+        holed.surface_of_triangle.pop();
+        let r = analyze(&holed);
+        assert_eq!(r.open_edges, 3);
+        assert!(!r.is_closed());
+        assert_eq!(r.air_volume_m3, None);
+
+        let mut flipped = m.clone();
+        flipped.triangles[0].swap(1, 2);
+        assert_eq!(analyze(&flipped).misoriented_edges, 3);
+
+        // An internal sheet on the diagonal plane x = y shares the box's vertical edges.
+        let mut sheet = m.clone();
+        sheet.push_quad(
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            Vec3::new(1.0, 1.0, 1.0),
+            Vec3::new(0.0, 0.0, 1.0),
+            s,
+        );
+        let r = analyze(&sheet);
+        assert!(r.over_shared_edges >= 2, "{r:?}");
+        assert!(!r.is_closed());
+    }
+}

@@ -1,0 +1,225 @@
+//! Loading a scene: a TOML scene file or a bare OBJ, resolved against the material library.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::desc::SceneDesc;
+use super::error::SceneError;
+use super::materials::{Material, MaterialLibrary};
+use super::obj::{MtlEntry, load_obj};
+use crate::core::{Sphere, TriangleMesh};
+
+/// One surface (material slot) of the scene: the name used in the geometry and its material.
+#[derive(Clone, Debug)]
+pub struct Surface {
+    /// The OBJ `usemtl` name, or the material name for analytic spheres.
+    pub name: String,
+    /// The resolved material, or `None` when neither the library nor a materials file knows
+    /// it (only allowed when the MTL defines it: such surfaces carry optical data only).
+    pub material: Option<Material>,
+    /// What the OBJ's MTL says about the surface, if anything.
+    pub mtl: Option<MtlEntry>,
+}
+
+/// A loaded scene: geometry, surfaces with materials, and the description's other parts.
+#[derive(Debug)]
+pub struct Scene {
+    /// The file the user named (scene TOML or OBJ).
+    pub path: PathBuf,
+    pub obj_path: PathBuf,
+    pub mesh: TriangleMesh,
+    /// Indexed by `SurfaceId`; triangle surfaces first, then one per sphere material.
+    pub surfaces: Vec<Surface>,
+    pub spheres: Vec<Sphere>,
+    pub desc: SceneDesc,
+    pub library: MaterialLibrary,
+    /// Non-fatal findings (dropped degenerate triangles, ...), one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Options that the command line adds to a scene.
+#[derive(Clone, Debug, Default)]
+pub struct LoadOptions {
+    /// Extra materials files (`--materials`), applied after the scene's own files.
+    pub materials_files: Vec<PathBuf>,
+}
+
+fn is_toml(path: &Path) -> bool {
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+}
+
+fn check_point(path: &Path, what: &str, p: [f32; 3]) -> Result<Vec3, SceneError> {
+    let v = Vec3::from(p);
+    if v.is_finite() {
+        Ok(v)
+    } else {
+        Err(SceneError::invalid(
+            path,
+            format!("{what} has a non-finite position {v}"),
+        ))
+    }
+}
+
+/// Loads a scene file (`.toml`) or a bare OBJ.
+pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    if !path.exists() {
+        return Err(SceneError::NotFound {
+            path: path.to_path_buf(),
+        });
+    }
+    let (desc, obj_path) = if is_toml(path) {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+        let desc: SceneDesc =
+            toml::from_str(&text).map_err(|e| SceneError::toml(path, &text, &e))?;
+        let obj = desc.obj.clone().ok_or_else(|| {
+            SceneError::invalid(path, "the scene names no geometry: add obj = \"FILE.obj\"")
+        })?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        (desc, dir.join(obj))
+    } else {
+        (SceneDesc::default(), path.to_path_buf())
+    };
+    let base_dir = path.parent().unwrap_or(Path::new(".")).to_path_buf();
+
+    let mut library = MaterialLibrary::builtin();
+    for f in &desc.materials_files {
+        library.add_file(&base_dir.join(f))?;
+    }
+    for f in &options.materials_files {
+        library.add_file(f)?;
+    }
+    library.add_specs(path, &desc.materials)?;
+
+    let obj = load_obj(&obj_path)?;
+    let mut warnings = Vec::new();
+    if obj.degenerate_dropped > 0 {
+        warnings.push(format!(
+            "{}: dropped {} degenerate (zero-area) triangles",
+            obj_path.display(),
+            obj.degenerate_dropped
+        ));
+    }
+    let mut mesh = obj.mesh;
+    if mesh.triangle_count() == 0 {
+        return Err(SceneError::invalid(
+            &obj_path,
+            "the scene is empty: no usable triangles",
+        ));
+    }
+
+    // Resolve every surface name.
+    for (name, target) in &desc.surfaces {
+        if !mesh.surface_names.contains(name) {
+            warnings.push(format!(
+                "{}: [surfaces] maps \"{name}\" but the OBJ has no such usemtl",
+                path.display()
+            ));
+        }
+        if library.get(target).is_none() {
+            let near = library.nearest_names(target, 3).join(", ");
+            return Err(SceneError::invalid(
+                path,
+                format!(
+                    "[surfaces] maps \"{name}\" to unknown material \"{target}\" (nearest known: {near})"
+                ),
+            ));
+        }
+    }
+    let mut surfaces = Vec::new();
+    let mut unknown = Vec::new();
+    for name in &mesh.surface_names {
+        let material_name = desc.surfaces.get(name).unwrap_or(name);
+        let material = library.get(material_name).cloned();
+        let mtl = obj.mtl.get(name).cloned();
+        if material.is_none() && mtl.is_none() {
+            unknown.push(name.clone());
+        }
+        surfaces.push(Surface {
+            name: name.clone(),
+            material,
+            mtl,
+        });
+    }
+    if !unknown.is_empty() {
+        let detail: Vec<String> = unknown
+            .iter()
+            .map(|n| {
+                format!(
+                    "\"{n}\" (nearest known: {})",
+                    library.nearest_names(n, 3).join(", ")
+                )
+            })
+            .collect();
+        return Err(SceneError::invalid(
+            &obj_path,
+            format!(
+                "unknown material names: {}; define them in a materials file (--materials) or the scene's [materials]",
+                detail.join("; ")
+            ),
+        ));
+    }
+
+    // Analytic spheres get one surface per material name.
+    let mut spheres = Vec::new();
+    for (i, s) in desc.spheres.iter().enumerate() {
+        let center = check_point(path, &format!("sphere {}", i + 1), s.center)?;
+        if !(s.radius_m.is_finite() && s.radius_m > 0.0) {
+            return Err(SceneError::invalid(
+                path,
+                format!("sphere {} has radius {} (must be > 0)", i + 1, s.radius_m),
+            ));
+        }
+        let material = library.get(&s.material).cloned().ok_or_else(|| {
+            let near = library.nearest_names(&s.material, 3).join(", ");
+            SceneError::invalid(
+                path,
+                format!(
+                    "sphere {} uses unknown material \"{}\" (nearest known: {near})",
+                    i + 1,
+                    s.material
+                ),
+            )
+        })?;
+        let id = mesh.surface_id(&format!("sphere:{}", s.material));
+        if id as usize == surfaces.len() {
+            surfaces.push(Surface {
+                name: format!("sphere:{}", s.material),
+                material: Some(material),
+                mtl: None,
+            });
+        }
+        spheres.push(Sphere::new(center, s.radius_m, id));
+    }
+
+    // Positions given in the description must be finite.
+    if let Some(c) = &desc.camera {
+        check_point(path, "camera eye", c.eye)?;
+        check_point(path, "camera target", c.target)?;
+    }
+    for l in &desc.lights {
+        check_point(path, "light", l.position)?;
+    }
+    if let Some(a) = &desc.acoustic {
+        for p in a.sources.iter().chain(&a.receivers) {
+            check_point(path, &format!("acoustic point \"{}\"", p.name), p.position)?;
+        }
+    }
+    if let Some(r) = &desc.rf {
+        for t in &r.transmitters {
+            check_point(path, &format!("transmitter \"{}\"", t.name), t.position)?;
+        }
+    }
+
+    Ok(Scene {
+        path: path.to_path_buf(),
+        obj_path,
+        mesh,
+        surfaces,
+        spheres,
+        desc,
+        library,
+        warnings,
+    })
+}

@@ -1,0 +1,472 @@
+//! Named materials: acoustic (octave-band absorption and scattering), radio (ITU-R P.2040 or
+//! explicit permittivity) and optical properties, from files or the built-in library.
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use glam::Vec3;
+use serde::Deserialize;
+
+use super::error::SceneError;
+use super::itu;
+
+/// Octave-band centre frequencies of every acoustic quantity in propsim, Hz (IEC 61260).
+pub const OCTAVE_BANDS_HZ: [f32; 8] = [63.0, 125.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0, 8000.0];
+/// Number of octave bands.
+pub const BAND_COUNT: usize = OCTAVE_BANDS_HZ.len();
+/// Scattering coefficient assumed when a material gives absorption but no scattering
+/// (a flat, smooth surface; cf. ISO 17497-1 and Vorlaender, Auralization, sec. 11.5).
+pub const DEFAULT_SCATTERING: f32 = 0.1;
+
+/// A value per octave band, 63 Hz to 8 kHz.
+pub type BandValues = [f32; BAND_COUNT];
+
+/// Acoustic surface data on the full 63 Hz - 8 kHz octave grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AcousticProps {
+    /// Random-incidence absorption coefficient per band, in [0, 1].
+    pub absorption: BandValues,
+    /// Random-incidence scattering coefficient per band (ISO 17497-1), in [0, 1].
+    pub scattering: BandValues,
+    /// Bands the source gave; others were filled by the nearest-band rule.
+    pub bands_given: std::ops::Range<usize>,
+}
+
+/// Radio data: an ITU-R P.2040-3 Table 3 material, or explicit constants.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RadioProps {
+    Itu(String),
+    Explicit {
+        relative_permittivity: f64,
+        conductivity_s_per_m: f64,
+    },
+}
+
+/// How light interacts with a surface.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum OpticalKind {
+    #[default]
+    Diffuse,
+    Metal,
+    Dielectric,
+}
+
+/// Optical data (linear RGB).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct OpticalProps {
+    pub kind: OpticalKind,
+    /// Diffuse albedo, or metal reflectance at normal incidence.
+    pub color: Vec3,
+    /// Microfacet roughness in [0, 1] (metal, glossy).
+    pub roughness: f32,
+    /// Index of refraction (dielectric).
+    pub ior: f32,
+    /// Emitted radiance, W / (m^2 sr) per channel.
+    pub emission: Vec3,
+}
+
+impl Default for OpticalProps {
+    fn default() -> Self {
+        Self {
+            kind: OpticalKind::Diffuse,
+            color: Vec3::splat(0.7),
+            roughness: 0.0,
+            ior: 1.5,
+            emission: Vec3::ZERO,
+        }
+    }
+}
+
+/// A resolved material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub description: String,
+    /// Provenance of the data.
+    pub source: String,
+    pub acoustic: Option<AcousticProps>,
+    pub radio: Option<RadioProps>,
+    /// `None` when the material says nothing about light (the OBJ's MTL then decides).
+    pub optical: Option<OpticalProps>,
+}
+
+/// A single number or one value per band.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(untagged)]
+pub enum ScalarOrBands {
+    Scalar(f32),
+    Bands(Vec<f32>),
+}
+
+/// One `[materials.NAME]` entry as written in a file.
+#[derive(Clone, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialSpec {
+    pub description: Option<String>,
+    pub source: Option<String>,
+    /// Absorption per octave band: 6 values (125 Hz - 4 kHz), 8 values (63 Hz - 8 kHz), or as
+    /// many as `bands_hz` lists.
+    pub absorption: Option<ScalarOrBands>,
+    pub scattering: Option<ScalarOrBands>,
+    /// Octave centres (Hz) the arrays refer to, when not the 6- or 8-band default.
+    pub bands_hz: Option<Vec<f32>>,
+    /// ITU-R P.2040-3 Table 3 material name.
+    pub itu: Option<String>,
+    pub relative_permittivity: Option<f64>,
+    pub conductivity_s_per_m: Option<f64>,
+    pub color: Option<[f32; 3]>,
+    pub kind: Option<OpticalKind>,
+    pub roughness: Option<f32>,
+    pub ior: Option<f32>,
+    pub emission: Option<[f32; 3]>,
+}
+
+/// A materials file: `[materials.NAME]` tables.
+#[derive(Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MaterialsFile {
+    #[serde(default)]
+    pub materials: BTreeMap<String, MaterialSpec>,
+}
+
+/// Index range in [`OCTAVE_BANDS_HZ`] that `n` values (or explicit centres) refer to.
+fn band_range(n: usize, bands_hz: Option<&[f32]>) -> Result<std::ops::Range<usize>, String> {
+    if let Some(centres) = bands_hz {
+        if centres.len() != n {
+            return Err(format!(
+                "bands_hz has {} entries but the values have {n}",
+                centres.len()
+            ));
+        }
+        let first = centres.first().ok_or("bands_hz is empty")?;
+        let start = OCTAVE_BANDS_HZ
+            .iter()
+            .position(|&f| (f - first).abs() < 1.0)
+            .ok_or_else(|| format!("{first} Hz is not an octave centre of {OCTAVE_BANDS_HZ:?}"))?;
+        for (k, &f) in centres.iter().enumerate() {
+            if OCTAVE_BANDS_HZ
+                .get(start + k)
+                .is_none_or(|&c| (c - f).abs() >= 1.0)
+            {
+                return Err(format!(
+                    "bands_hz must be consecutive octave centres from {OCTAVE_BANDS_HZ:?}"
+                ));
+            }
+        }
+        return Ok(start..start + n);
+    }
+    match n {
+        6 => Ok(1..7),
+        8 => Ok(0..8),
+        _ => Err(format!(
+            "expected 6 octave-band values (125 Hz - 4 kHz) or 8 (63 Hz - 8 kHz), got {n}; give bands_hz for other sets"
+        )),
+    }
+}
+
+/// Spreads values given on `range` over all bands: bands below the lowest given take its value,
+/// bands above the highest take that one (the documented nearest-band rule).
+fn fill_bands(values: &[f32], range: &std::ops::Range<usize>) -> BandValues {
+    let mut out = [0.0; BAND_COUNT];
+    for (i, o) in out.iter_mut().enumerate() {
+        let k = i.clamp(range.start, range.end - 1) - range.start;
+        *o = values[k];
+    }
+    out
+}
+
+fn coefficient_bands(
+    what: &str,
+    v: &ScalarOrBands,
+    range: Option<&std::ops::Range<usize>>,
+    bands_hz: Option<&[f32]>,
+) -> Result<(BandValues, std::ops::Range<usize>), String> {
+    let (values, range) = match v {
+        ScalarOrBands::Scalar(x) => (vec![*x], 0..1),
+        ScalarOrBands::Bands(vs) => {
+            let r = match range {
+                Some(r) if r.len() == vs.len() => r.clone(),
+                _ => band_range(vs.len(), bands_hz).map_err(|e| format!("{what}: {e}"))?,
+            };
+            (vs.clone(), r)
+        }
+    };
+    if let Some(bad) = values.iter().find(|x| !(0.0..=1.0).contains(*x)) {
+        return Err(format!("{what} value {bad} is outside [0, 1]"));
+    }
+    if let ScalarOrBands::Scalar(x) = v {
+        return Ok(([*x; BAND_COUNT], 0..BAND_COUNT));
+    }
+    Ok((fill_bands(&values, &range), range))
+}
+
+impl MaterialSpec {
+    /// Checks and resolves the entry called `name`.
+    pub fn resolve(&self, name: &str) -> Result<Material, String> {
+        let bands_hz = self.bands_hz.as_deref();
+        let acoustic = match (&self.absorption, &self.scattering) {
+            (None, None) => None,
+            (None, Some(_)) => return Err("scattering is given without absorption".into()),
+            (Some(a), s) => {
+                let (absorption, range) = coefficient_bands("absorption", a, None, bands_hz)?;
+                let scattering = match s {
+                    Some(s) => coefficient_bands("scattering", s, Some(&range), bands_hz)?.0,
+                    None => [DEFAULT_SCATTERING; BAND_COUNT],
+                };
+                Some(AcousticProps {
+                    absorption,
+                    scattering,
+                    bands_given: range,
+                })
+            }
+        };
+        let radio = match (
+            &self.itu,
+            self.relative_permittivity,
+            self.conductivity_s_per_m,
+        ) {
+            (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
+                return Err(
+                    "give either itu or relative_permittivity/conductivity_s_per_m, not both"
+                        .into(),
+                );
+            }
+            (Some(n), None, None) => {
+                let names = itu::itu_names();
+                if !names.contains(&n.as_str()) {
+                    return Err(format!(
+                        "unknown ITU-R P.2040 material \"{n}\" (known: {})",
+                        names.join(", ")
+                    ));
+                }
+                Some(RadioProps::Itu(n.clone()))
+            }
+            (None, Some(eps), sigma) => {
+                let sigma = sigma.unwrap_or(0.0);
+                if !(eps.is_finite() && eps >= 1.0 && sigma.is_finite() && sigma >= 0.0) {
+                    return Err(
+                        "relative_permittivity must be >= 1 and conductivity_s_per_m >= 0".into(),
+                    );
+                }
+                Some(RadioProps::Explicit {
+                    relative_permittivity: eps,
+                    conductivity_s_per_m: sigma,
+                })
+            }
+            (None, None, Some(_)) => {
+                return Err("conductivity_s_per_m needs relative_permittivity".into());
+            }
+            (None, None, None) => None,
+        };
+        let optical_given = self.color.is_some()
+            || self.kind.is_some()
+            || self.emission.is_some()
+            || self.ior.is_some()
+            || self.roughness.is_some();
+        let optical = if optical_given {
+            let d = OpticalProps::default();
+            let color = self.color.map_or(d.color, Vec3::from);
+            let emission = self.emission.map_or(Vec3::ZERO, Vec3::from);
+            let roughness = self.roughness.unwrap_or(d.roughness);
+            let ior = self.ior.unwrap_or(d.ior);
+            if !color.is_finite() || color.min_element() < 0.0 || color.max_element() > 1.0 {
+                return Err("color components must be in [0, 1]".into());
+            }
+            if !emission.is_finite() || emission.min_element() < 0.0 {
+                return Err("emission must be finite and non-negative".into());
+            }
+            if !(0.0..=1.0).contains(&roughness) {
+                return Err("roughness must be in [0, 1]".into());
+            }
+            if !(ior.is_finite() && ior >= 1.0) {
+                return Err("ior must be >= 1".into());
+            }
+            Some(OpticalProps {
+                kind: self.kind.unwrap_or_default(),
+                color,
+                roughness,
+                ior,
+                emission,
+            })
+        } else {
+            None
+        };
+        Ok(Material {
+            name: name.to_string(),
+            description: self.description.clone().unwrap_or_default(),
+            source: self.source.clone().unwrap_or_default(),
+            acoustic,
+            radio,
+            optical,
+        })
+    }
+}
+
+/// Materials by name. Later additions override earlier ones of the same name.
+#[derive(Clone, Debug, Default)]
+pub struct MaterialLibrary {
+    pub materials: BTreeMap<String, Material>,
+}
+
+/// The built-in library's source text (provenance noted per entry).
+pub const BUILTIN_LIBRARY_TOML: &str = include_str!("library.toml");
+
+impl MaterialLibrary {
+    /// The built-in library.
+    pub fn builtin() -> Self {
+        let mut lib = Self::default();
+        lib.add_toml(Path::new("<built-in library>"), BUILTIN_LIBRARY_TOML)
+            .expect("the built-in material library is valid (tested)");
+        lib
+    }
+
+    /// Adds every entry of a materials TOML text; `path` is used in error messages.
+    pub fn add_toml(&mut self, path: &Path, text: &str) -> Result<(), SceneError> {
+        let file: MaterialsFile =
+            toml::from_str(text).map_err(|e| SceneError::toml(path, text, &e))?;
+        self.add_specs(path, &file.materials)
+    }
+
+    /// Adds resolved entries; errors name the file and the material.
+    pub fn add_specs(
+        &mut self,
+        path: &Path,
+        specs: &BTreeMap<String, MaterialSpec>,
+    ) -> Result<(), SceneError> {
+        for (name, spec) in specs {
+            let m = spec
+                .resolve(name)
+                .map_err(|e| SceneError::invalid(path, format!("material \"{name}\": {e}")))?;
+            self.materials.insert(name.clone(), m);
+        }
+        Ok(())
+    }
+
+    /// Reads and adds a materials file.
+    pub fn add_file(&mut self, path: &Path) -> Result<(), SceneError> {
+        let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+        self.add_toml(path, &text)
+    }
+
+    pub fn get(&self, name: &str) -> Option<&Material> {
+        self.materials.get(name)
+    }
+
+    /// Up to `k` known names closest to `name` (case-insensitive Jaro-Winkler).
+    pub fn nearest_names(&self, name: &str, k: usize) -> Vec<String> {
+        let lower = name.to_lowercase();
+        let mut scored: Vec<(f64, &String)> = self
+            .materials
+            .keys()
+            .map(|n| (strsim::jaro_winkler(&lower, &n.to_lowercase()), n))
+            .collect();
+        scored.sort_by(|a, b| b.0.total_cmp(&a.0).then_with(|| a.1.cmp(b.1)));
+        scored.into_iter().take(k).map(|(_, n)| n.clone()).collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn spec(text: &str) -> Result<Material, String> {
+        let file: MaterialsFile = toml::from_str(text).map_err(|e| e.to_string())?;
+        let (name, s) = file.materials.iter().next().unwrap();
+        s.resolve(name)
+    }
+
+    #[test]
+    fn six_bands_map_to_125_through_4k_and_fill_the_edges() {
+        let m = spec(
+            "[materials.concrete]\nabsorption = [0.02, 0.03, 0.03, 0.03, 0.04, 0.07]\n\
+             scattering = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\nitu = \"concrete\"\n",
+        )
+        .unwrap();
+        let a = m.acoustic.unwrap();
+        assert_eq!(
+            a.absorption,
+            [0.02, 0.02, 0.03, 0.03, 0.03, 0.04, 0.07, 0.07]
+        );
+        assert_eq!(a.bands_given, 1..7);
+        assert_eq!(m.radio, Some(RadioProps::Itu("concrete".into())));
+        assert_eq!(m.optical, None);
+    }
+
+    #[test]
+    fn explicit_bands_and_scalar_scattering() {
+        let m = spec(
+            "[materials.x]\nabsorption = [0.5, 0.6]\nbands_hz = [1000, 2000]\nscattering = 0.3\n",
+        )
+        .unwrap();
+        let a = m.acoustic.unwrap();
+        assert_eq!(a.absorption, [0.5, 0.5, 0.5, 0.5, 0.5, 0.6, 0.6, 0.6]);
+        assert_eq!(a.scattering, [0.3; 8]);
+        let m = spec("[materials.x]\nabsorption = 0.2\n").unwrap();
+        assert_eq!(m.acoustic.unwrap().scattering, [DEFAULT_SCATTERING; 8]);
+    }
+
+    #[test]
+    fn rejects_bad_values() {
+        assert!(
+            spec("[materials.x]\nabsorption = [0.1, 0.2, 0.3]\n")
+                .unwrap_err()
+                .contains("expected 6")
+        );
+        assert!(
+            spec("[materials.x]\nabsorption = 1.5\n")
+                .unwrap_err()
+                .contains("outside [0, 1]")
+        );
+        assert!(
+            spec("[materials.x]\nitu = \"cheese\"\n")
+                .unwrap_err()
+                .contains("unknown ITU")
+        );
+        assert!(
+            spec(
+                "[materials.x]\nabsorption = [0.1,0.1,0.1,0.1,0.1,0.1]\nscattering = [0.1, 0.1]\n"
+            )
+            .is_err()
+        );
+        assert!(spec("[materials.x]\ncolor = [2, 0, 0]\n").is_err());
+        assert!(
+            spec("[materials.x]\nbogus = 1\n")
+                .unwrap_err()
+                .contains("unknown field")
+        );
+    }
+
+    #[test]
+    fn builtin_library_is_valid_and_large_enough() {
+        let lib = MaterialLibrary::builtin();
+        let acoustic: Vec<&Material> = lib
+            .materials
+            .values()
+            .filter(|m| m.acoustic.is_some())
+            .collect();
+        assert!(
+            acoustic.len() >= 30,
+            "only {} acoustic materials",
+            acoustic.len()
+        );
+        for m in &acoustic {
+            assert!(!m.source.trim().is_empty(), "{} has no provenance", m.name);
+        }
+        for name in itu::itu_names() {
+            let m = lib
+                .get(name)
+                .unwrap_or_else(|| panic!("built-in library lacks ITU material {name}"));
+            assert_eq!(m.radio, Some(RadioProps::Itu(name.to_string())));
+        }
+    }
+
+    #[test]
+    fn nearest_names_suggest_close_spellings() {
+        let lib = MaterialLibrary::builtin();
+        assert_eq!(
+            lib.nearest_names("concret", 1),
+            vec!["concrete".to_string()]
+        );
+    }
+}

@@ -1,0 +1,17 @@
+//! Scenes: the description (TOML + OBJ/MTL + materials) and the runtime world built from it.
+
+pub mod check;
+pub mod desc;
+pub mod error;
+pub mod itu;
+pub mod load;
+pub mod materials;
+pub mod obj;
+pub mod world;
+
+pub use check::{MeshReport, analyze};
+pub use desc::SceneDesc;
+pub use error::SceneError;
+pub use load::{LoadOptions, Scene, Surface, load};
+pub use materials::{Material, MaterialLibrary};
+pub use world::World;

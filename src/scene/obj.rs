@@ -1,0 +1,251 @@
+//! OBJ + MTL loading through tobj: triangulated, one surface per `usemtl` name, with clear
+//! errors for missing files, malformed lines and non-finite coordinates.
+
+use std::cell::RefCell;
+use std::collections::BTreeMap;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+
+use super::error::SceneError;
+use crate::core::TriangleMesh;
+
+/// What an MTL file says about one material (linear RGB as written).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MtlEntry {
+    pub diffuse: Option<[f32; 3]>,
+    pub specular: Option<[f32; 3]>,
+    pub shininess: Option<f32>,
+    pub optical_density: Option<f32>,
+    pub dissolve: Option<f32>,
+    pub emission: Option<[f32; 3]>,
+    pub illumination_model: Option<u8>,
+}
+
+/// A loaded OBJ.
+#[derive(Debug, Default)]
+pub struct ObjScene {
+    pub mesh: TriangleMesh,
+    /// MTL data for the surfaces it defines, by `usemtl` name.
+    pub mtl: BTreeMap<String, MtlEntry>,
+    /// Triangles dropped because their area was zero (or not finite).
+    pub degenerate_dropped: usize,
+}
+
+/// Surface name given to faces that come before any `usemtl`.
+pub const DEFAULT_SURFACE: &str = "default";
+/// Placeholder library that makes tobj keep every `usemtl` name, with or without an MTL.
+const NAMES_LIBRARY: &str = "\u{1}propsim-usemtl-names";
+
+/// First line (1-based) of `text` for which `bad` holds, to point the user at it.
+fn find_line(text: &str, bad: impl Fn(&str) -> bool) -> Option<usize> {
+    text.lines().position(|l| bad(l.trim())).map(|i| i + 1)
+}
+
+fn parses_floats(rest: &str, min: usize) -> bool {
+    let vals: Vec<&str> = rest.split_whitespace().collect();
+    vals.len() >= min && vals.iter().all(|v| v.parse::<f32>().is_ok())
+}
+
+/// Why tobj rejected the file, with the offending line where it can be found.
+fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) -> String {
+    use tobj::LoadError as E;
+    let located = match err {
+        E::PositionParseError => find_line(text, |l| {
+            l.strip_prefix("v ")
+                .or(l.strip_prefix("v\t"))
+                .is_some_and(|r| !parses_floats(r, 3))
+        })
+        .map(|n| format!("line {n}: vertex position is not three numbers")),
+        E::NormalParseError => find_line(text, |l| {
+            l.strip_prefix("vn ").is_some_and(|r| !parses_floats(r, 3))
+        })
+        .map(|n| format!("line {n}: normal is not three numbers")),
+        E::TexcoordParseError => find_line(text, |l| {
+            l.strip_prefix("vt ").is_some_and(|r| !parses_floats(r, 1))
+        })
+        .map(|n| format!("line {n}: texture coordinate is not a number")),
+        E::FaceParseError | E::InvalidPolygon | E::FaceVertexOutOfBounds => find_line(text, |l| {
+            l.strip_prefix("f ").is_some_and(|r| {
+                let idx: Vec<Option<i64>> = r
+                    .split_whitespace()
+                    .map(|w| w.split('/').next().and_then(|s| s.parse().ok()))
+                    .collect();
+                idx.len() < 3
+                    || idx.iter().any(|i| match i {
+                        None => true,
+                        Some(i) => *i == 0 || i.unsigned_abs() as usize > vertex_count,
+                    })
+            })
+        })
+        .map(|n| {
+            format!("line {n}: face refers to a vertex that does not exist or is not a number")
+        }),
+        _ => None,
+    };
+    located.unwrap_or_else(|| format!("malformed OBJ: {err}"))
+}
+
+/// Loads an OBJ file (and its MTL libraries) into a mesh with one surface per `usemtl` name.
+pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
+    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
+    let usemtl_names: Vec<String> = {
+        let mut v: Vec<String> = Vec::new();
+        for l in text.lines() {
+            if let Some(name) = l.trim().strip_prefix("usemtl") {
+                let name = name.trim().to_string();
+                if !name.is_empty() && !v.contains(&name) {
+                    v.push(name);
+                }
+            }
+        }
+        v
+    };
+    let vertex_count = text
+        .lines()
+        .filter(|l| l.trim_start().starts_with("v "))
+        .count();
+
+    // Prepend a synthetic library so every usemtl name survives even without an MTL; real
+    // libraries loaded later override these placeholders.
+    let augmented = format!("mtllib {NAMES_LIBRARY}\n{text}");
+    let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let missing_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
+    let options = tobj::LoadOptions {
+        triangulate: true,
+        single_index: false,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let loaded = tobj::load_obj_buf(&mut BufReader::new(augmented.as_bytes()), &options, |lib| {
+        if lib.as_os_str() == NAMES_LIBRARY {
+            let mut map = std::collections::HashMap::new();
+            let mats = usemtl_names
+                .iter()
+                .enumerate()
+                .map(|(i, n)| {
+                    map.insert(n.clone(), i);
+                    tobj::Material {
+                        name: n.clone(),
+                        ..Default::default()
+                    }
+                })
+                .collect();
+            return Ok((mats, map));
+        }
+        let full = dir.join(lib);
+        match std::fs::File::open(&full) {
+            Ok(f) => tobj::load_mtl_buf(&mut BufReader::new(f)),
+            Err(e) => {
+                missing_mtl
+                    .borrow_mut()
+                    .get_or_insert((full, e.to_string()));
+                Err(tobj::LoadError::OpenFileFailed)
+            }
+        }
+    });
+    if let Some((mtl, reason)) = missing_mtl.into_inner() {
+        return Err(SceneError::invalid(
+            path,
+            format!(
+                "material library {} cannot be opened ({reason})",
+                mtl.display()
+            ),
+        ));
+    }
+    let (models, materials) = loaded
+        .map_err(|e| SceneError::invalid(path, describe_tobj_error(e, &text, vertex_count)))?;
+    let materials =
+        materials.map_err(|e| SceneError::invalid(path, format!("malformed MTL: {e}")))?;
+
+    let mut out = ObjScene::default();
+    for m in &materials {
+        if m.name.is_empty() || usemtl_names.iter().all(|n| n != &m.name) {
+            continue;
+        }
+        let real = m.diffuse.is_some()
+            || m.specular.is_some()
+            || m.shininess.is_some()
+            || m.dissolve.is_some()
+            || m.optical_density.is_some()
+            || m.emissive.is_some();
+        if !real {
+            continue;
+        }
+        out.mtl.insert(
+            m.name.clone(),
+            MtlEntry {
+                diffuse: m.diffuse,
+                specular: m.specular,
+                shininess: m.shininess,
+                optical_density: m.optical_density,
+                dissolve: m.dissolve,
+                emission: m.emissive,
+                illumination_model: m.illumination_model,
+            },
+        );
+    }
+
+    let mesh = &mut out.mesh;
+    for model in &models {
+        let m = &model.mesh;
+        let surface_name = m
+            .material_id
+            .and_then(|i| materials.get(i))
+            .map(|mat| mat.name.clone())
+            .unwrap_or_else(|| DEFAULT_SURFACE.to_string());
+        let surface = mesh.surface_id(&surface_name);
+        let base = mesh.positions.len() as u32;
+        for (k, p) in m.positions.chunks_exact(3).enumerate() {
+            let v = Vec3::new(p[0], p[1], p[2]);
+            if !v.is_finite() {
+                let line = nth_vertex_line(&text, k + base as usize);
+                return Err(SceneError::invalid(
+                    path,
+                    format!(
+                        "{}vertex {} has a non-finite coordinate {v}",
+                        line,
+                        k + 1 + base as usize
+                    ),
+                ));
+            }
+            mesh.positions.push(v);
+        }
+        for tri in m.indices.chunks_exact(3) {
+            let t = [base + tri[0], base + tri[1], base + tri[2]];
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            if area.is_nan() || area <= 0.0 || t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                out.degenerate_dropped += 1;
+                continue;
+            }
+            mesh.triangles.push(t);
+            mesh.surface_of_triangle.push(surface);
+        }
+    }
+    Ok(out)
+}
+
+/// "line N: " of the `index`-th (0-based) vertex statement, or "" if it cannot be found.
+/// tobj renumbers per model, so this is exact only for single-object files; good enough
+/// to point at the first bad coordinate, which is what it is used for.
+fn nth_vertex_line(text: &str, index: usize) -> String {
+    text.lines()
+        .enumerate()
+        .filter(|(_, l)| l.trim_start().starts_with("v "))
+        .find(|(_, l)| !parses_finite(l.trim_start()[2..].trim()))
+        .or_else(|| {
+            text.lines()
+                .enumerate()
+                .filter(|(_, l)| l.trim_start().starts_with("v "))
+                .nth(index)
+        })
+        .map(|(n, _)| format!("line {}: ", n + 1))
+        .unwrap_or_default()
+}
+
+fn parses_finite(rest: &str) -> bool {
+    rest.split_whitespace()
+        .all(|v| v.parse::<f32>().is_ok_and(f32::is_finite))
+}
