@@ -33,8 +33,7 @@ pub enum BuildQuality {
 }
 
 impl BuildQuality {
-    pub const ALL: [BuildQuality; 3] =
-        [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
+    pub const ALL: [BuildQuality; 3] = [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
 
     fn params(self) -> BvhBuildParams {
         let mut p = match self {
@@ -111,20 +110,9 @@ impl MeshBvh {
         // The BVH keeps its own copy of the order; we keep ours next to the triangles.
         let mesh_index = std::mem::take(&mut bvh.primitive_indices);
         bvh.primitive_indices = Vec::new();
-        let ordered: Vec<TriangleRt> = mesh_index
-            .par_iter()
-            .map(|&i| mesh.triangle_rt(i as usize))
-            .collect();
-        let surface = mesh_index
-            .iter()
-            .map(|&i| mesh.surface_of_triangle[i as usize])
-            .collect();
-        Self {
-            bvh,
-            tris: ordered,
-            mesh_index,
-            surface,
-        }
+        let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
+        let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
+        Self { bvh, tris: ordered, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -143,20 +131,16 @@ impl MeshBvh {
         let mut rh = RayHit::none();
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
-            tris[id].intersect_t(&shear, r.tmin, r.tmax)
-        });
+        let hit = self
+            .bvh
+            .ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax));
         hit.then_some((rh.primitive_id as usize, rh.t))
     }
 
     fn make_hit(&self, slot: usize, t: f32, ray: &Ray) -> Hit {
         let tri = &self.tris[slot];
         let uv = tri
-            .intersect_sheared(
-                &RayShear::new(ray.origin, ray.dir),
-                f32::NEG_INFINITY,
-                f32::INFINITY,
-            )
+            .intersect_sheared(&RayShear::new(ray.origin, ray.dir), f32::NEG_INFINITY, f32::INFINITY)
             .map_or(Vec2::ZERO, |(_, uv)| uv);
         let normal = tri.normal();
         Hit {
@@ -172,14 +156,12 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_slot(ray)
-            .map(|(slot, t)| self.make_hit(slot, t, ray))
+        self.closest_slot(ray).map(|(slot, t)| self.make_hit(slot, t, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_slot(ray)
-            .map(|(slot, t)| (self.mesh_index[slot], t))
+        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot], t))
     }
 
     /// True when any triangle lies on the segment `(t_min, t_max]`.
@@ -189,9 +171,7 @@ impl MeshBvh {
         }
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| {
-            tris[id].intersect_t(&shear, r.tmin, r.tmax)
-        })
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax))
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
@@ -222,15 +202,9 @@ pub struct SphereSet {
 impl SphereSet {
     pub fn new(spheres: Vec<Sphere>) -> Self {
         let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
-            let bounds: Vec<Bounds> = spheres
-                .iter()
-                .map(|s| padded_bounds(s.aabb_min(), s.aabb_max()))
-                .collect();
-            build_cwbvh(
-                &bounds,
-                BvhBuildParams::medium_build(),
-                &mut Duration::default(),
-            )
+            let bounds: Vec<Bounds> =
+                spheres.iter().map(|s| padded_bounds(s.aabb_min(), s.aabb_max())).collect();
+            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default())
         });
         Self { spheres, bvh }
     }
@@ -243,9 +217,9 @@ impl SphereSet {
     fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
         match &self.bvh {
             None => (0..self.spheres.len()).for_each(f),
-            Some(bvh) => bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| {
-                f(bvh.primitive_indices[id] as usize)
-            }),
+            Some(bvh) => {
+                bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| f(bvh.primitive_indices[id] as usize))
+            }
         }
     }
 
@@ -300,10 +274,7 @@ const BATCH_CHUNK: usize = 4096;
 
 impl Accel {
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
-        Self {
-            mesh: MeshBvh::build(mesh, quality),
-            spheres: SphereSet::new(spheres),
-        }
+        Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres) }
     }
 
     /// The closest triangle or sphere hit in `(t_min, t_max]`.
@@ -340,16 +311,6 @@ impl Accel {
     pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
         map_in_coherent_order(rays, |r| self.occluded(r))
     }
-
-    /// Count of surfaces crossed by the ray: the parity test for "is the origin inside".
-    pub fn crossings(&self, ray: &Ray) -> usize {
-        let mut ts: Vec<f32> = Vec::new();
-        self.mesh.for_each_hit(ray, |h| ts.push(h.t));
-        // A ray through a shared edge reports both triangles at the same distance: count once.
-        ts.sort_by(f32::total_cmp);
-        ts.dedup_by(|a, b| (*a - *b).abs() <= 1e-5 * b.abs().max(1.0));
-        ts.len()
-    }
 }
 
 /// Spreads the low 10 bits of `v` to every third bit (Morton encoding).
@@ -365,14 +326,17 @@ fn spread_bits(v: u32) -> u64 {
 /// (the ray-reordering idea of Pharr et al. 1997 and Garanzha & Loop 2010): rays that visit the
 /// same BVH nodes are traced one after the other.
 pub fn coherent_order(rays: &[Ray]) -> Vec<u32> {
-    let (lo, hi) = rays.iter().fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
+    let (lo, hi) = rays
+        .iter()
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
     let scale = 1023.0 / (hi - lo).max(Vec3::splat(1e-12));
     let mut keyed: Vec<(u64, u32)> = rays
         .par_iter()
         .enumerate()
         .map(|(i, r)| {
             let q = ((r.origin - lo) * scale).as_uvec3();
-            let octant = u64::from(r.dir.x < 0.0) | u64::from(r.dir.y < 0.0) << 1 | u64::from(r.dir.z < 0.0) << 2;
+            let octant =
+                u64::from(r.dir.x < 0.0) | u64::from(r.dir.y < 0.0) << 1 | u64::from(r.dir.z < 0.0) << 2;
             let morton = spread_bits(q.x) | spread_bits(q.y) << 1 | spread_bits(q.z) << 2;
             ((octant << 30) | morton, i as u32)
         })
@@ -398,17 +362,32 @@ fn map_in_coherent_order<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&Ra
     out
 }
 
-/// Point inside a closed mesh by majority vote of ray parity along three fixed directions
-/// (irrational-ish so that they rarely graze edges).
-pub fn point_inside(accel: &Accel, p: Vec3) -> bool {
-    const DIRS: [Vec3; 3] = [
-        Vec3::new(0.5773, 0.5774, 0.5776),
-        Vec3::new(-0.2673, 0.5345, 0.8018),
-        Vec3::new(0.7072, -0.6, -0.3741),
-    ];
-    let votes = DIRS
+/// Fixed, irrational-looking directions for inside tests: they rarely graze edges.
+const PARITY_DIRECTIONS: [[f32; 3]; 5] = [
+    [0.5773, 0.5774, 0.5776],
+    [-0.2673, 0.5345, 0.8018],
+    [0.7072, -0.6, -0.3741],
+    [-0.6, -0.48, 0.64],
+    [0.05, 0.2, -0.9785],
+];
+
+/// Whether `p` is enclosed by the triangles for which `counts(mesh_index)` holds, by the
+/// parity of crossings along five fixed directions and a majority vote. Hits at the same
+/// distance (a ray through a shared edge meets both triangles) count once.
+pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> bool {
+    let votes = PARITY_DIRECTIONS
         .iter()
-        .filter(|d| accel.crossings(&Ray::new(p, d.normalize())) % 2 == 1)
+        .filter(|d| {
+            let mut ts: Vec<f32> = Vec::new();
+            accel.mesh.for_each_hit(&Ray::new(p, Vec3::from(**d).normalize()), |h| {
+                if counts(h.primitive) {
+                    ts.push(h.t);
+                }
+            });
+            ts.sort_by(f32::total_cmp);
+            ts.dedup_by(|a, b| (*a - *b).abs() <= 1e-5 * b.abs().max(1.0));
+            ts.len() % 2 == 1
+        })
         .count();
-    votes >= 2
+    votes * 2 > PARITY_DIRECTIONS.len()
 }

@@ -23,13 +23,19 @@ pub struct MeshReport {
     pub total_area_m2: f64,
     /// Area per surface id, square metres.
     pub area_by_surface_m2: Vec<f64>,
-    /// Components of triangles connected through two-triangle edges.
+    /// Components of triangles connected through two-triangle edges, largest volume first.
     pub components: Vec<ComponentReport>,
+    /// Index into `components` of each triangle.
+    pub component_of_triangle: Vec<u32>,
     /// Sum of signed tetrahedron volumes over all triangles (divergence theorem), m^3.
     pub divergence_volume_m3: f64,
     /// Volume of air: the largest closed component (the room shell) minus the closed
-    /// components inside it (obstacles), m^3; `None` when no component is closed.
+    /// components inside it (obstacles), m^3; `None` when no closed component encloses all
+    /// the others (an open or outdoor scene).
     pub air_volume_m3: Option<f64>,
+    /// With an air volume: whether the shell's normals point out of the air (positive signed
+    /// volume), as in BRAS and propsim's rooms; the inside test needs to know.
+    pub normals_point_out_of_air: Option<bool>,
 }
 
 /// One connected component.
@@ -39,8 +45,11 @@ pub struct ComponentReport {
     pub area_m2: f64,
     /// Signed volume; positive when normals point outward of the enclosed region.
     pub signed_volume_m3: f64,
-    /// Every edge of the component is shared by exactly two of its triangles.
+    /// No edge of the component is used by only one triangle.
     pub closed: bool,
+    /// All triangles lie in one plane (a zero-thickness sheet, e.g. a partition between two
+    /// solids that share it).
+    pub planar: bool,
     pub bounds: (Vec3, Vec3),
 }
 
@@ -119,41 +128,52 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
             }
         }
     }
-    let mut component_open: HashMap<u32, bool> = HashMap::new();
-    for (&(lo, _), &(count, dir_sum, first)) in &edges {
-        let _ = lo;
+    for &(count, dir_sum, _) in edges.values() {
         match count {
             1 => report.open_edges += 1,
             2 if dir_sum != 0 => report.misoriented_edges += 1,
             2 => {}
             _ => report.over_shared_edges += 1,
         }
-        if count != 2 {
-            let root = find(&mut parent, first);
-            component_open.insert(root, true);
+    }
+    // A component with an edge used once (a hole, a loose panel) is open. Edges shared by
+    // more than two triangles (an internal sheet between two solids) do not open it.
+    let mut root_of: Vec<u32> = (0..n as u32).map(|t| find(&mut parent, t)).collect();
+    let mut component_open: HashMap<u32, bool> = HashMap::new();
+    for &(count, _, first) in edges.values() {
+        if count == 1 {
+            component_open.insert(root_of[first as usize], true);
         }
     }
 
     let mut comps: HashMap<u32, ComponentReport> = HashMap::new();
+    // Normal and a point of each component's first triangle, for the planarity test.
+    let mut plane_of: HashMap<u32, (DVec3, DVec3)> = HashMap::new();
     for t in 0..n {
-        let [a, b, c] = mesh.corners(t).map(|p| p.as_dvec3());
-        let area = 0.5 * (b - a).cross(c - a).length();
-        let vol = a.dot(b.cross(c)) / 6.0;
+        let [a, b, c_] = mesh.corners(t).map(|p| p.as_dvec3());
+        let area = 0.5 * (b - a).cross(c_ - a).length();
+        let vol = a.dot(b.cross(c_)) / 6.0;
         report.total_area_m2 += area;
         report.divergence_volume_m3 += vol;
-        if let Some(s) = report
-            .area_by_surface_m2
-            .get_mut(mesh.surface_of_triangle[t] as usize)
-        {
+        if let Some(s) = report.area_by_surface_m2.get_mut(mesh.surface_of_triangle[t] as usize) {
             *s += area;
         }
-        let root = find(&mut parent, t as u32);
+        let root = root_of[t];
         let lo_hi = mesh.corners(t);
         let c = comps.entry(root).or_insert_with(|| ComponentReport {
             closed: !component_open.get(&root).copied().unwrap_or(false),
             bounds: (lo_hi[0], lo_hi[0]),
             ..Default::default()
         });
+        let normal = (b - a).cross(c_ - a).normalize_or_zero();
+        let (n0, p0) = *plane_of.entry(root).or_insert((normal, a));
+        if c.triangles == 0 {
+            c.planar = true;
+        }
+        let off_plane = |p: DVec3| (p - p0).dot(n0).abs() > 1e-6 * (1.0 + p.abs().max_element());
+        if c.planar && (normal.cross(n0).length() > 1e-6 || [a, b, c_].into_iter().any(off_plane)) {
+            c.planar = false;
+        }
         c.triangles += 1;
         c.area_m2 += area;
         c.signed_volume_m3 += vol;
@@ -161,25 +181,39 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
             c.bounds = (c.bounds.0.min(p), c.bounds.1.max(p));
         }
     }
-    let mut components: Vec<ComponentReport> = comps.into_values().collect();
-    components.sort_by(|a, b| {
+    let mut keyed: Vec<(u32, ComponentReport)> = comps.into_iter().collect();
+    keyed.sort_by(|(ra, a), (rb, b)| {
         b.signed_volume_m3
             .abs()
             .total_cmp(&a.signed_volume_m3.abs())
             .then(b.triangles.cmp(&a.triangles))
+            .then(ra.cmp(rb))
     });
-    // A closed component with open edges elsewhere in the mesh can still bound air.
-    report.air_volume_m3 = components.iter().find(|c| c.closed).map(|shell| {
+    let index_of_root: HashMap<u32, u32> =
+        keyed.iter().enumerate().map(|(i, (r, _))| (*r, i as u32)).collect();
+    for r in &mut root_of {
+        *r = index_of_root[r];
+    }
+    report.component_of_triangle = root_of;
+    let components: Vec<ComponentReport> = keyed.into_iter().map(|(_, c)| c).collect();
+    // Air is bounded when the largest closed component (the room shell) encloses every other
+    // component (obstacles, hanging panels); closed components inside it are subtracted.
+    let shell = components.iter().position(|c| c.closed);
+    if let Some(shell) = shell.map(|i| &components[i]) {
         let inside = |c: &ComponentReport| {
-            c.bounds.0.cmpge(shell.bounds.0).all() && c.bounds.1.cmple(shell.bounds.1).all()
+            let pad = 1e-4 * (1.0 + shell.bounds.1.abs().max(shell.bounds.0.abs()).max_element());
+            c.bounds.0.cmpge(shell.bounds.0 - pad).all() && c.bounds.1.cmple(shell.bounds.1 + pad).all()
         };
-        let obstacles: f64 = components
-            .iter()
-            .filter(|c| c.closed && !std::ptr::eq(*c, shell) && inside(c))
-            .map(|c| c.signed_volume_m3.abs())
-            .sum();
-        shell.signed_volume_m3.abs() - obstacles
-    });
+        if components.iter().all(inside) {
+            let obstacles: f64 = components
+                .iter()
+                .filter(|c| c.closed && !c.planar && !std::ptr::eq(*c, shell))
+                .map(|c| c.signed_volume_m3.abs())
+                .sum();
+            report.air_volume_m3 = Some(shell.signed_volume_m3.abs() - obstacles);
+            report.normals_point_out_of_air = Some(shell.signed_volume_m3 > 0.0);
+        }
+    }
     report.components = components;
     report
 }
