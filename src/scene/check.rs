@@ -149,7 +149,7 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
     let mut comps: HashMap<u32, ComponentReport> = HashMap::new();
     // Normal and a point of each component's first triangle, for the planarity test.
     let mut plane_of: HashMap<u32, (DVec3, DVec3)> = HashMap::new();
-    for t in 0..n {
+    for (t, &root) in root_of.iter().enumerate() {
         let [a, b, c_] = mesh.corners(t).map(|p| p.as_dvec3());
         let area = 0.5 * (b - a).cross(c_ - a).length();
         let vol = a.dot(b.cross(c_)) / 6.0;
@@ -158,7 +158,6 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
         if let Some(s) = report.area_by_surface_m2.get_mut(mesh.surface_of_triangle[t] as usize) {
             *s += area;
         }
-        let root = root_of[t];
         let lo_hi = mesh.corners(t);
         let c = comps.entry(root).or_insert_with(|| ComponentReport {
             closed: !component_open.get(&root).copied().unwrap_or(false),
