@@ -11,7 +11,8 @@ use crate::scene::{self, LoadOptions, World};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
-    /// Scene file (.toml) or bare OBJ.
+    /// Scene file (.toml), bare OBJ, or builtin:NAME.
+    #[arg(default_value = super::DEFAULT_SCENE)]
     pub scene: PathBuf,
     /// Extra materials file(s).
     #[arg(long = "materials")]

@@ -65,6 +65,9 @@ pub fn parse_point(s: &str) -> Result<[f32; 3], String> {
     Ok(out)
 }
 
+/// The scene used when a command is given none.
+pub const DEFAULT_SCENE: &str = "builtin:bras_cr2";
+
 /// Default output directory of every simulator.
 pub fn default_out_dir() -> PathBuf {
     PathBuf::from("out")

@@ -4,6 +4,7 @@ use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 
+use super::builtin;
 use super::desc::SceneDesc;
 use super::error::SceneError;
 use super::materials::{Material, MaterialLibrary};
@@ -58,8 +59,16 @@ fn check_point(path: &Path, what: &str, p: [f32; 3]) -> Result<Vec3, SceneError>
     }
 }
 
-/// Loads a scene file (`.toml`) or a bare OBJ.
+/// Loads a scene file (`.toml`), a bare OBJ, or a built-in scene (`builtin:NAME`).
 pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
+    if let Some(name) = builtin::builtin_name(path) {
+        let (_dir, main) = builtin::materialize(name)?;
+        let mut scene = load(&main, options)?;
+        scene.path = path.to_path_buf();
+        scene.obj_path = Path::new(&format!("{}{name}", builtin::BUILTIN_PREFIX))
+            .join(scene.obj_path.file_name().unwrap_or_default());
+        return Ok(scene);
+    }
     if !path.exists() {
         return Err(SceneError::NotFound { path: path.to_path_buf() });
     }

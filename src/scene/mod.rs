@@ -1,5 +1,6 @@
 //! Scenes: the description (TOML + OBJ/MTL + materials) and the runtime world built from it.
 
+pub mod builtin;
 pub mod check;
 pub mod desc;
 pub mod error;
