@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod hit;
+pub mod launcher;
 pub mod mesh;
 pub mod ray;
 pub mod rng;
