@@ -144,22 +144,30 @@ pub fn launch_range<P: Propagation>(
     blocks: std::ops::Range<u64>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
-    let per_block: Vec<P::Accum> = blocks
-        .into_par_iter()
-        .map(|b| {
-            let mut acc = prop.new_accum();
-            let start = b * LAUNCH_BLOCK as u64;
-            let end = (start + LAUNCH_BLOCK as u64).min(launch.rays);
-            for i in start..end {
-                trace_ray(accel, prop, launch, i, &mut acc);
-            }
-            progress(end - start);
-            acc
-        })
-        .collect();
+    // Blocks run in parallel in groups; each group's results are merged in block order before
+    // the next group starts, which bounds memory to a group's accumulators.
+    let group = (rayon::current_num_threads() * 4).max(1) as u64;
     let mut total = prop.new_accum();
-    for acc in per_block {
-        prop.merge(&mut total, acc);
+    let mut start = blocks.start;
+    while start < blocks.end {
+        let end = (start + group).min(blocks.end);
+        let per_block: Vec<P::Accum> = (start..end)
+            .into_par_iter()
+            .map(|b| {
+                let mut acc = prop.new_accum();
+                let first = b * LAUNCH_BLOCK as u64;
+                let last = (first + LAUNCH_BLOCK as u64).min(launch.rays);
+                for i in first..last {
+                    trace_ray(accel, prop, launch, i, &mut acc);
+                }
+                progress(last - first);
+                acc
+            })
+            .collect();
+        for acc in per_block {
+            prop.merge(&mut total, acc);
+        }
+        start = end;
     }
     total
 }
