@@ -2,6 +2,7 @@
 //! over the same OBJ scene and the same named materials.
 #![forbid(unsafe_code)]
 
+pub mod acoustic;
 pub mod cli;
 pub mod core;
 pub mod scene;

@@ -1,0 +1,13 @@
+//! Room acoustics: sound rays from point sources through a closed room to sphere receivers,
+//! merged with image sources for the early specular part, giving energy histograms, impulse
+//! responses and ISO 3382-1 parameters.
+
+pub mod air;
+pub mod image_source;
+pub mod metrics;
+pub mod room;
+pub mod simulate;
+pub mod tracer;
+
+pub use air::Air;
+pub use simulate::{AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, simulate};

@@ -1,0 +1,134 @@
+//! Room-acoustics physics against closed-form answers.
+
+use std::path::{Path, PathBuf};
+
+use propsim::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
+use propsim::scene::{self, LoadOptions, World};
+
+/// A closed box room [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
+fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> World {
+    let [x, y, z] = size;
+    let obj = format!(
+        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
+         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+    );
+    let obj_path = dir.join("room.obj");
+    std::fs::write(&obj_path, obj).unwrap();
+    let mats = dir.join("mats.toml");
+    std::fs::write(
+        &mats,
+        format!("[materials.test_wall]\nabsorption = {absorption}\nscattering = {scattering}\n"),
+    )
+    .unwrap();
+    let s = scene::load(&obj_path, &LoadOptions { materials_files: vec![PathBuf::from(&mats)] }).unwrap();
+    World::build(s)
+}
+
+fn src(p: [f32; 3]) -> Vec<SourceSpec> {
+    vec![SourceSpec { name: "S".into(), position: p, power_w: 1.0 }]
+}
+
+fn rcv(p: [f32; 3], r: Option<f32>) -> Vec<ReceiverSpec> {
+    vec![ReceiverSpec { name: "R".into(), position: p, radius_m: r }]
+}
+
+#[test]
+fn direct_sound_is_one_over_four_pi_d_squared_within_2_percent() {
+    // A fully absorbing room: the receivers see the direct sound only. Rays alone (no
+    // image sources), 10^6 rays, two radii.
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_room(dir.path(), [20.0, 20.0, 20.0], 1.0, 0.0);
+    let settings = AcousticSettings {
+        rays: 1_000_000,
+        use_image_sources: false,
+        air_absorption: false,
+        max_time_s: Some(0.1),
+        ..Default::default()
+    };
+    for radius in [0.1, 0.4] {
+        let d = 4.0f64;
+        let r = simulate(
+            &world,
+            &src([8.0, 10.0, 10.0]),
+            &rcv([12.0, 10.0, 10.0], Some(radius)),
+            &settings,
+            &|_| {},
+        )
+        .unwrap();
+        let total: f64 = r.pairs[0].histogram.iter().map(|h| h[3]).sum();
+        let expected = 1.0 / (4.0 * std::f64::consts::PI * d * d);
+        let err = (total - expected).abs() / expected;
+        assert!(err < 0.02, "radius {radius}: {total} vs {expected} ({:.2} %)", 100.0 * err);
+    }
+}
+
+#[test]
+fn closed_lossless_room_keeps_its_energy() {
+    // No absorption, no air: nothing may leak through the mesh over 1 s.
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_room(dir.path(), [10.0, 8.0, 3.0], 0.0, 0.5);
+    let settings = AcousticSettings {
+        rays: 20_000,
+        use_image_sources: false,
+        air_absorption: false,
+        max_time_s: Some(1.0),
+        ..Default::default()
+    };
+    let r = simulate(&world, &src([2.0, 3.0, 1.5]), &rcv([7.0, 5.0, 1.2], Some(0.5)), &settings, &|_| {})
+        .unwrap();
+    assert!(r.escaped_energy_fraction < 1e-3, "leak {}", r.escaped_energy_fraction);
+    // In the diffuse steady state the fluence per unit time at any receiver is
+    // E c / V (energy density times c): check the late histogram against it within 5 %.
+    let h = &r.pairs[0].histogram;
+    let late: f64 = h[200..1000].iter().map(|b| b[3]).sum::<f64>() / 0.8;
+    let expected = r.speed_of_sound_m_s / 240.0;
+    assert!((late - expected).abs() / expected < 0.05, "{late} vs {expected}");
+}
+
+/// T30 of the 10 x 8 x 3 m shoebox (scattering 0.5) against Eyring within `eyring_tol`, and
+/// against Eyring corrected for the spread of free path lengths (Kuttruff, Room Acoustics,
+/// sec. 5.5; gamma^2 of this box by Monte Carlo) within 5 %.
+fn shoebox_t30(absorption: f32, air: bool, eyring_tol: f64) {
+    use propsim::acoustic::room::{box_free_path_statistics, kuttruff_time_s};
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_room(dir.path(), [10.0, 8.0, 3.0], absorption, 0.5);
+    let settings = AcousticSettings { rays: 100_000, air_absorption: air, ..Default::default() };
+    let r = simulate(&world, &src([2.0, 3.0, 1.5]), &rcv([7.0, 5.0, 1.2], None), &settings, &|_| {}).unwrap();
+    let (_, gamma2) = box_free_path_statistics([10.0, 8.0, 3.0], 200_000, 3);
+    let air_m = if air { settings.air.energy_coefficient_per_m() } else { [0.0; 8] };
+    for b in [1, 3, 5, 6] {
+        let t30 = r.pairs[0].metrics[b].t30_s.unwrap();
+        let eyring = r.eyring_s[b];
+        let kuttruff = kuttruff_time_s(
+            240.0,
+            268.0,
+            f64::from(absorption),
+            f64::from(air_m[b]),
+            gamma2,
+            r.speed_of_sound_m_s,
+        );
+        let hz = r.bands_hz[b];
+        assert!(
+            (t30 - eyring).abs() / eyring < eyring_tol,
+            "a = {absorption}, air {air}, {hz} Hz: T30 {t30:.3} s vs Eyring {eyring:.3} s"
+        );
+        assert!(
+            (t30 - kuttruff).abs() / kuttruff < 0.05,
+            "a = {absorption}, air {air}, {hz} Hz: T30 {t30:.3} s vs Kuttruff {kuttruff:.3} s"
+        );
+    }
+}
+
+#[test]
+fn shoebox_t30_matches_eyring_at_absorption_01() {
+    shoebox_t30(0.1, false, 0.05);
+    shoebox_t30(0.1, true, 0.05);
+}
+
+/// At a = 0.3 the spread of path lengths matters: diffuse-field theory puts T30 about 8 %
+/// above Eyring for this box (gamma^2 = 0.40), and so does the simulation.
+#[test]
+fn shoebox_t30_at_absorption_03_follows_the_path_length_corrected_eyring() {
+    shoebox_t30(0.3, false, 0.12);
+    shoebox_t30(0.3, true, 0.12);
+}
