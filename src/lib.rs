@@ -5,4 +5,5 @@
 pub mod acoustic;
 pub mod cli;
 pub mod core;
+pub mod io;
 pub mod scene;

@@ -132,3 +132,62 @@ fn shoebox_t30_at_absorption_03_follows_the_path_length_corrected_eyring() {
     shoebox_t30(0.3, false, 0.12);
     shoebox_t30(0.3, true, 0.12);
 }
+
+#[test]
+fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
+    use glam::Vec3;
+    use propsim::acoustic::tracer::{SoundPropagation, SurfaceAcoustics};
+    use propsim::core::launcher::{Launch, LaunchPattern, launch};
+    use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
+
+    // A 4 m cube, absorption 0.2, purely specular; one ray from (1, 2, 2) along +x through a
+    // receiver of radius 0.25 m at (3, 2, 2). The ray bounces between x = 4 and x = 0 and
+    // crosses the receiver (chord 0.5 m) with its centre at path lengths 2, 4, 10, 12, 18,
+    // 20, ... m after 0, 1, 2, 3, 4, 5, ... reflections.
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("wall");
+    mesh.push_box(Vec3::ZERO, Vec3::splat(4.0), 1, s);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let receivers = [Sphere::new(Vec3::new(3.0, 2.0, 2.0), 0.25, 0)];
+    let surfaces = [SurfaceAcoustics { absorption: [0.2; 8], scattering: [0.0; 8] }];
+    let c = 343.2f32;
+    let prop = SoundPropagation {
+        surfaces: &surfaces,
+        receivers: &receivers,
+        ray_energy_j: 1.0,
+        air_per_m: [0.0; 8],
+        speed_of_sound_m_s: c,
+        bin_s: 1e-3,
+        bins: 100,
+        skip_specular_up_to: None,
+        stop_factor: 1e-9,
+        max_path_m: 30.0,
+        scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
+    };
+    let spec = Launch {
+        origin: Vec3::new(1.0, 2.0, 2.0),
+        rays: 1,
+        seed: 1,
+        domain: 0,
+        pattern: LaunchPattern::Fixed(Vec3::X),
+        max_reflections: 1000,
+        max_path_m: 30.0,
+    };
+    let record = launch(&accel, &prop, &spec, &|_| {});
+    let volume = 4.0 / 3.0 * std::f32::consts::PI * 0.25f32.powi(3);
+    let per_crossing = 0.5 / volume;
+    let expected: Vec<(u32, f32)> = [2.0f32, 4.0, 10.0, 12.0, 18.0, 20.0, 26.0, 28.0]
+        .iter()
+        .enumerate()
+        .map(|(k, path)| ((path / c / 1e-3) as u32, per_crossing * 0.8f32.powi(k as i32)))
+        .collect();
+    let got: Vec<(u32, f32)> = record.detections.iter().map(|d| (d.bin, d.energy[3])).collect();
+    assert_eq!(got.len(), expected.len(), "{got:?}");
+    for ((gb, ge), (eb, ee)) in got.iter().zip(&expected) {
+        assert_eq!(gb, eb);
+        assert!((ge - ee).abs() < 1e-4 * ee, "{ge} vs {ee}");
+    }
+    // Bins by hand: 2 m / 343.2 m/s = 5.83 ms -> bin 5; 4 m -> 11; 10 m -> 29; 12 m -> 34.
+    assert_eq!(&got.iter().map(|g| g.0).collect::<Vec<_>>()[..4], &[5, 11, 29, 34]);
+    assert_eq!(record.rays_escaped, 0);
+}

@@ -4,6 +4,7 @@
 
 pub mod air;
 pub mod image_source;
+pub mod impulse_response;
 pub mod metrics;
 pub mod room;
 pub mod simulate;

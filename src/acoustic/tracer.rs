@@ -143,10 +143,13 @@ impl Propagation for SoundPropagation<'_> {
         }
     }
 
-    /// Absorption, then a random choice between Lambert scattering (probability = the mean
-    /// scattering coefficient s_m) and specular reflection, with per-band weights s_b / s_m
-    /// and (1 - s_b) / (1 - s_m) so each band's expected split is exactly s_b : (1 - s_b)
-    /// (Vorlaender, Auralization, sec. 11.5).
+    /// Absorption, then a random choice between Lambert scattering, with probability
+    /// p = sum_b E_b s_b / sum_b E_b (the energy-weighted scattering coefficient), and specular
+    /// reflection, with per-band weights s_b / p and (1 - s_b) / (1 - p). Each band's expected
+    /// split is exactly s_b : (1 - s_b) (Vorlaender, Auralization, sec. 11.5), and the ray's
+    /// total energy is the same on both branches, so band weights cannot grow without bound
+    /// over many reflections (a plain mean of s_b lets them, which made rare rays carry
+    /// -20 dB of energy into the late decay).
     fn interact(
         &self,
         _: &mut TraceRecord,
@@ -157,7 +160,9 @@ impl Propagation for SoundPropagation<'_> {
         rng: &mut Rng64,
     ) -> Bounce {
         let surface = &self.surfaces[hit.surface as usize];
-        let s_mean = surface.scattering.iter().sum::<f32>() / BAND_COUNT as f32;
+        let total: f32 = ray_state.energy.iter().sum();
+        let weighted: f32 = ray_state.energy.iter().zip(surface.scattering).map(|(e, s)| e * s).sum();
+        let s_mean = if total > 0.0 { (weighted / total).clamp(0.0, 1.0) } else { 0.0 };
         let diffuse = uniform(rng) < s_mean;
         let mut alive = false;
         let threshold = self.ray_energy_j * self.stop_factor;

@@ -1,8 +1,10 @@
 //! The `propsim` command line: argument parsing and dispatch. Each subcommand lives in its
 //! own file; all report errors as one line naming the file and the problem.
 
+pub mod acoustic;
 pub mod bench_trace;
 pub mod info;
+pub mod progress;
 
 use std::path::PathBuf;
 
@@ -24,6 +26,9 @@ pub enum Command {
     /// Geometry and material report: triangles, bounds, areas, volume, closedness, and
     /// whether every source and receiver is inside the room.
     Info(info::InfoArgs),
+    /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
+    /// for every source-receiver pair, plus Sabine and Eyring estimates.
+    Acoustic(acoustic::AcousticArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -44,6 +49,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
     match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Acoustic(args) => acoustic::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
     }
 }

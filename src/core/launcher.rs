@@ -20,13 +20,15 @@ use super::sampling::{fibonacci_sphere, uniform_sphere};
 pub const LAUNCH_BLOCK: usize = 1024;
 
 /// How launch directions are chosen.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub enum LaunchPattern {
     /// The spherical Fibonacci lattice, randomly rotated per run: equal solid angle per ray.
     #[default]
     Fibonacci,
     /// Independent uniform directions.
     Random,
+    /// Every ray along this unit direction (for tests with hand-computed answers).
+    Fixed(Vec3),
 }
 
 /// What to do after a surface interaction.
@@ -100,6 +102,7 @@ pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index
             fibonacci_sphere(index as usize, launch.rays as usize, offset)
         }
         LaunchPattern::Random => uniform_sphere(Vec2::new(uniform(&mut rng), uniform(&mut rng))),
+        LaunchPattern::Fixed(d) => d,
     };
     let mut payload = prop.emit(index, dir);
     let mut ray = Ray::new(launch.origin, dir);

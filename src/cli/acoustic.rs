@@ -1,0 +1,385 @@
+//! `propsim acoustic`: impulse responses, histograms and ISO 3382-1 parameters of a room.
+
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clap::Args;
+use glam::Vec3;
+
+use crate::acoustic::impulse_response::{SAMPLE_RATE_HZ, synthesize};
+use crate::acoustic::{AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate};
+use crate::core::Ray;
+use crate::core::rng::{stream, uniform};
+use crate::io::plot::{Series, line_chart};
+use crate::io::{file_stem, wav};
+use crate::scene::{self, LoadOptions, World};
+
+#[derive(Args, Debug)]
+pub struct AcousticArgs {
+    /// Scene file (.toml), bare OBJ, or builtin:NAME.
+    #[arg(default_value = super::DEFAULT_SCENE)]
+    pub scene: PathBuf,
+    /// Source position X,Y,Z (repeatable); replaces the scene's sources.
+    #[arg(long = "source", value_parser = super::parse_point)]
+    pub sources: Vec<[f32; 3]>,
+    /// Receiver position X,Y,Z (repeatable); replaces the scene's receivers.
+    #[arg(long = "receiver", value_parser = super::parse_point)]
+    pub receivers: Vec<[f32; 3]>,
+    /// Extra materials file(s).
+    #[arg(long = "materials")]
+    pub materials: Vec<PathBuf>,
+    /// Rays per source (default: the scene's, else 200000).
+    #[arg(long)]
+    pub rays: Option<u64>,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+    /// Histogram length, s (default: 1.2 x the longest Eyring time).
+    #[arg(long)]
+    pub max_time_s: Option<f64>,
+    /// Highest image-source order for the early specular reflections.
+    #[arg(long, default_value_t = 2)]
+    pub ism_order: u32,
+    /// Receiver radius, m (default: a rule from room volume and ray count).
+    #[arg(long)]
+    pub receiver_radius_m: Option<f32>,
+    /// Switch off air absorption.
+    #[arg(long)]
+    pub no_air: bool,
+    /// Air temperature, C (default: the scene's, else 20).
+    #[arg(long)]
+    pub temperature_c: Option<f64>,
+    /// Relative humidity, % (default: the scene's, else 50).
+    #[arg(long)]
+    pub humidity_percent: Option<f64>,
+}
+
+/// Picks a point inside the room at least `clearance_m` from every surface, trying the
+/// relative position `hint` in the bounding box first, then a deterministic random search.
+fn place_inside(world: &World, hint: Vec3, clearance_m: f32) -> Option<Vec3> {
+    let (lo, hi) = world.scene.mesh.bounds()?;
+    let clear = |p: Vec3| {
+        world.is_inside(p) == Some(true)
+            && [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z]
+                .iter()
+                .all(|d| world.accel.mesh.closest_hit(&Ray::new(p, *d)).is_none_or(|h| h.t >= clearance_m))
+    };
+    let first = lo + (hi - lo) * hint;
+    if clear(first) {
+        return Some(first);
+    }
+    (0..20_000u64).find_map(|i| {
+        let mut r = stream(7, 0x91ace, i);
+        let p = lo + (hi - lo) * Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r));
+        clear(p).then_some(p)
+    })
+}
+
+fn fmt_opt(v: Option<f64>, digits: usize) -> String {
+    v.map_or(String::new(), |x| format!("{x:.digits$}"))
+}
+
+/// Writes every output of `result` into `out`.
+pub fn write_outputs(
+    out: &Path,
+    result: &AcousticResult,
+    volume_m3: f64,
+    seed: u64,
+) -> anyhow::Result<Vec<PathBuf>> {
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("{}: cannot create the output directory", out.display()))?;
+    let mut written = Vec::new();
+    // metrics.csv: exactly the columns of the issue.
+    let metrics_path = out.join("metrics.csv");
+    let mut w =
+        csv::Writer::from_path(&metrics_path).with_context(|| format!("{}", metrics_path.display()))?;
+    w.write_record([
+        "source", "receiver", "band_hz", "edt_s", "t20_s", "t30_s", "c50_db", "c80_db", "d50", "ts_ms",
+    ])?;
+    for p in &result.pairs {
+        for (b, m) in p.metrics.iter().enumerate() {
+            w.write_record([
+                p.source.clone(),
+                p.receiver.clone(),
+                format!("{}", result.bands_hz[b]),
+                fmt_opt(m.edt_s, 4),
+                fmt_opt(m.t20_s, 4),
+                fmt_opt(m.t30_s, 4),
+                fmt_opt(m.c50_db, 3),
+                fmt_opt(m.c80_db, 3),
+                fmt_opt(m.d50, 4),
+                fmt_opt(m.ts_ms, 2),
+            ])?;
+        }
+    }
+    w.flush()?;
+    written.push(metrics_path);
+    // histogram.csv: energy fluence per bin and band, J/m^2.
+    let hist_path = out.join("histogram.csv");
+    let mut w = csv::Writer::from_path(&hist_path).with_context(|| format!("{}", hist_path.display()))?;
+    let mut header = vec!["source".to_string(), "receiver".into(), "time_s".into()];
+    header.extend(result.bands_hz.iter().map(|f| format!("energy_{f}hz_j_per_m2")));
+    w.write_record(&header)?;
+    for p in &result.pairs {
+        for (k, bin) in p.histogram.iter().enumerate() {
+            let mut row =
+                vec![p.source.clone(), p.receiver.clone(), format!("{:.4}", k as f64 * result.bin_s)];
+            row.extend(bin.iter().map(|e| format!("{e:.6e}")));
+            w.write_record(&row)?;
+        }
+    }
+    w.flush()?;
+    written.push(hist_path);
+    use rayon::prelude::*;
+    let per_pair: Vec<anyhow::Result<Vec<PathBuf>>> = result
+        .pairs
+        .par_iter()
+        .enumerate()
+        .map(|(i, p)| write_pair(out, result, volume_m3, seed, i, p))
+        .collect();
+    for files in per_pair {
+        written.extend(files?);
+    }
+    Ok(written)
+}
+
+/// The WAV and the two charts of one source-receiver pair.
+fn write_pair(
+    out: &Path,
+    result: &AcousticResult,
+    volume_m3: f64,
+    seed: u64,
+    i: usize,
+    p: &crate::acoustic::PairResult,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let mut written = Vec::new();
+    {
+        let stem = format!("{}_{}", file_stem(&p.source), file_stem(&p.receiver));
+        let ir = synthesize(
+            &p.histogram,
+            result.bin_s,
+            volume_m3,
+            result.speed_of_sound_m_s,
+            seed ^ (i as u64) << 20,
+        );
+        let wav_path = out.join(format!("ir_{stem}.wav"));
+        wav::write_f32_mono(&wav_path, &ir, SAMPLE_RATE_HZ)?;
+        written.push(wav_path);
+        // Impulse response (level of the squared pressure, 1 ms RMS) and decay curves.
+        let per_ms = (SAMPLE_RATE_HZ / 1000) as usize;
+        let peak = ir.iter().fold(0.0f32, |m, v| m.max(v.abs())).max(f32::MIN_POSITIVE);
+        let ir_points: Vec<(f64, f64)> = ir
+            .chunks(per_ms)
+            .enumerate()
+            .map(|(k, c)| {
+                let rms = (c.iter().map(|v| v * v).sum::<f32>() / c.len() as f32).sqrt();
+                (k as f64 * 1e-3, (20.0 * f64::from((rms / peak).max(1e-6)).log10()).max(-100.0))
+            })
+            .collect();
+        let t_end = p.histogram.len() as f64 * result.bin_s;
+        let png = out.join(format!("ir_{stem}.png"));
+        line_chart(
+            &png,
+            &format!("Impulse response {} -> {}", p.source, p.receiver),
+            "time (s)",
+            "level re peak (dB)",
+            (0.0, t_end),
+            (-100.0, 0.0),
+            &[Series { label: "1 ms RMS".into(), points: ir_points }],
+        )?;
+        written.push(png);
+        let series: Vec<Series> = (0..result.bands_hz.len())
+            .map(|b| {
+                let band: Vec<f64> = p.histogram.iter().map(|h| h[b]).collect();
+                let edc = crate::acoustic::metrics::schroeder_db(&band);
+                Series {
+                    label: format!("{} Hz", result.bands_hz[b]),
+                    points: edc
+                        .iter()
+                        .enumerate()
+                        .filter(|(_, v)| v.is_finite() && **v >= -90.0)
+                        .map(|(k, v)| (k as f64 * result.bin_s, *v))
+                        .collect(),
+                }
+            })
+            .collect();
+        let png = out.join(format!("decay_{stem}.png"));
+        line_chart(
+            &png,
+            &format!("Energy decay curves {} -> {}", p.source, p.receiver),
+            "time (s)",
+            "Schroeder decay (dB)",
+            (0.0, t_end),
+            (-90.0, 0.0),
+            &series,
+        )?;
+        written.push(png);
+    }
+    Ok(written)
+}
+
+/// The printed summary: room estimates and parameters averaged over the pairs.
+pub fn summary_text(r: &AcousticResult) -> String {
+    let mut o = String::new();
+    let _ = writeln!(
+        o,
+        "room: {:.2} m^3, {:.2} m^2, c = {:.2} m/s",
+        r.volume_m3, r.surface_m2, r.speed_of_sound_m_s
+    );
+    let _ = write!(o, "{:<10}", "band Hz");
+    for f in r.bands_hz {
+        let _ = write!(o, "{f:>8}");
+    }
+    let _ = writeln!(o);
+    let mut line = |name: &str, v: &dyn Fn(usize) -> Option<f64>, digits: usize| {
+        let _ = write!(o, "{name:<10}");
+        for b in 0..r.bands_hz.len() {
+            let _ = match v(b) {
+                Some(x) => write!(o, "{x:>8.digits$}"),
+                None => write!(o, "{:>8}", "-"),
+            };
+        }
+        let _ = writeln!(o);
+    };
+    line("Sabine s", &|b| Some(r.sabine_s[b]), 3);
+    line("Eyring s", &|b| Some(r.eyring_s[b]), 3);
+    let mean = |f: &dyn Fn(&crate::acoustic::metrics::BandMetrics) -> Option<f64>, b: usize| {
+        let v: Vec<f64> = r.pairs.iter().filter_map(|p| f(&p.metrics[b])).collect();
+        (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
+    };
+    line("EDT s", &|b| mean(&|m| m.edt_s, b), 3);
+    line("T20 s", &|b| mean(&|m| m.t20_s, b), 3);
+    line("T30 s", &|b| mean(&|m| m.t30_s, b), 3);
+    line("C80 dB", &|b| mean(&|m| m.c80_db, b), 2);
+    line("D50", &|b| mean(&|m| m.d50, b), 3);
+    let _ = writeln!(o, "(parameters averaged over {} source-receiver pairs)", r.pairs.len());
+    o
+}
+
+pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let scene_label = args.scene.display().to_string();
+    let world = World::build(scene);
+    if world.report.over_shared_edges > 0 {
+        eprintln!(
+            "warning: {scene_label}: {} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface",
+            world.report.over_shared_edges
+        );
+    }
+    let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
+    let mut sources: Vec<SourceSpec> = if args.sources.is_empty() {
+        desc.sources
+            .iter()
+            .map(|p| SourceSpec {
+                name: p.name.clone(),
+                position: p.position,
+                power_w: f64::from(p.power_w.unwrap_or(1.0)),
+            })
+            .collect()
+    } else {
+        args.sources
+            .iter()
+            .enumerate()
+            .map(|(i, p)| SourceSpec { name: format!("S{}", i + 1), position: *p, power_w: 1.0 })
+            .collect()
+    };
+    let mut receivers: Vec<ReceiverSpec> = if args.receivers.is_empty() {
+        desc.receivers
+            .iter()
+            .map(|p| ReceiverSpec {
+                name: p.name.clone(),
+                position: p.position,
+                radius_m: p.radius_m.or(args.receiver_radius_m),
+            })
+            .collect()
+    } else {
+        args.receivers
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ReceiverSpec {
+                name: format!("R{}", i + 1),
+                position: *p,
+                radius_m: args.receiver_radius_m,
+            })
+            .collect()
+    };
+    if world.report.air_volume_m3.is_none() {
+        anyhow::bail!("{scene_label}: the scene encloses no air; room acoustics needs a closed room");
+    }
+    if sources.is_empty() {
+        let p = place_inside(&world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
+            format!("{scene_label}: found no place for a source 0.5 m from every surface")
+        })?;
+        eprintln!("note: no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        sources.push(SourceSpec { name: "S1".into(), position: p.to_array(), power_w: 1.0 });
+    }
+    if receivers.is_empty() {
+        let p = place_inside(&world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
+            format!("{scene_label}: found no place for a receiver 0.5 m from every surface")
+        })?;
+        eprintln!("note: no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        receivers.push(ReceiverSpec {
+            name: "R1".into(),
+            position: p.to_array(),
+            radius_m: args.receiver_radius_m,
+        });
+    }
+    let air = Air {
+        temperature_c: args.temperature_c.or(desc.temperature_c.map(f64::from)).unwrap_or(20.0),
+        relative_humidity_percent: args
+            .humidity_percent
+            .or(desc.relative_humidity_percent.map(f64::from))
+            .unwrap_or(50.0),
+        pressure_kpa: desc.pressure_kpa.map_or(101.325, f64::from),
+    };
+    let settings = AcousticSettings {
+        rays: args.rays.or(desc.rays).unwrap_or(200_000),
+        seed: args.seed,
+        max_time_s: args.max_time_s.or(desc.max_time_s.map(f64::from)),
+        air,
+        air_absorption: !args.no_air,
+        ism_order: args.ism_order,
+        ..Default::default()
+    };
+    anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);
+    let bar = super::progress::bar(settings.rays * sources.len() as u64, "rays");
+    let result = simulate(&world, &sources, &receivers, &settings, &|n| bar.inc(n))
+        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    bar.finish_and_clear();
+    let traced_s = started.elapsed().as_secs_f64();
+    let written = write_outputs(&args.out, &result, result.volume_m3, settings.seed)?;
+    let summary_path = args.out.join("summary.json");
+    let json = serde_json::json!({
+        "propsim_version": env!("CARGO_PKG_VERSION"),
+        "scene": scene_label,
+        "sources": sources,
+        "receivers": receivers,
+        "result": result,
+        "wall_time_s": started.elapsed().as_secs_f64(),
+        "trace_time_s": traced_s,
+        "notes": {
+            "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
+            "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",
+            "metrics": "ISO 3382-1 from the Schroeder curve; C50, C80, D50 and Ts counted from the direct-sound arrival d/c",
+        },
+    });
+    std::fs::write(&summary_path, serde_json::to_string_pretty(&json)?)
+        .with_context(|| format!("{}: cannot write", summary_path.display()))?;
+    print!("{}", summary_text(&result));
+    println!(
+        "wrote {} files to {} ({} rays/source, {:.2} s)",
+        written.len() + 1,
+        args.out.display(),
+        settings.rays,
+        started.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
