@@ -1,8 +1,10 @@
 //! The `propsim` command line: argument parsing and dispatch. Each subcommand lives in its
 //! own file; all report errors as one line naming the file and the problem.
 
+pub mod bench_render;
 pub mod bench_trace;
 pub mod info;
+pub mod render;
 
 use std::path::PathBuf;
 
@@ -24,6 +26,8 @@ pub enum Command {
     /// Geometry and material report: triangles, bounds, areas, volume, closedness, and
     /// whether every source and receiver is inside the room.
     Info(info::InfoArgs),
+    /// Render an image (PNG or EXR) of a scene with a chosen integrator.
+    Render(render::RenderArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -34,17 +38,27 @@ pub enum BenchCommand {
     /// Trace a ray file (or generated rays) against a mesh: build time, closest-hit and
     /// occlusion Mrays/s, and a checksum of the hit triangle indices.
     Trace(bench_trace::TraceArgs),
+    /// Render the classic Cornell box (256x256, depth 8) several times: samples/s, Mrays/s
+    /// and wall time (median).
+    Render(bench_render::BenchRenderArgs),
 }
 
 /// Runs the command line; the error, if any, is for `main` to print on one line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(n) = cli.threads {
-        anyhow::ensure!((1..=4096).contains(&n), "--threads {n}: must be between 1 and 4096");
-        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
+        anyhow::ensure!(
+            (1..=4096).contains(&n),
+            "--threads {n}: must be between 1 and 4096"
+        );
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(n)
+            .build_global()?;
     }
     match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Render(args) => render::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
+        Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
     }
 }
 

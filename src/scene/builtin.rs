@@ -16,7 +16,10 @@ pub struct BuiltinScene {
 
 macro_rules! room_file {
     ($dir:literal, $file:literal) => {
-        ($file, include_str!(concat!("../../rooms/", $dir, "/", $file)))
+        (
+            $file,
+            include_str!(concat!("../../rooms/", $dir, "/", $file)),
+        )
     };
 }
 
@@ -40,6 +43,16 @@ pub const BUILTIN_SCENES: &[BuiltinScene] = &[
             room_file!("cornell_box", "scene.toml"),
             room_file!("cornell_box", "cornell_box.obj"),
             room_file!("cornell_box", "cornell_box.mtl"),
+        ],
+    },
+    BuiltinScene {
+        name: "cornell_box_classic",
+        description: "the classic open-front Cornell box with its camera: the render reference and benchmark",
+        main: "scene.toml",
+        files: &[
+            room_file!("cornell_box_classic", "scene.toml"),
+            room_file!("cornell_box_classic", "cornell_box_classic.obj"),
+            room_file!("cornell_box_classic", "cornell_box_classic.mtl"),
         ],
     },
     BuiltinScene {
@@ -103,7 +116,10 @@ mod tests {
             )
             .unwrap_or_else(|e| panic!("{}: {e}", s.name));
             assert!(scene.mesh.triangle_count() > 0);
-            assert_eq!(scene.path, Path::new(&format!("{BUILTIN_PREFIX}{}", s.name)));
+            assert_eq!(
+                scene.path,
+                Path::new(&format!("{BUILTIN_PREFIX}{}", s.name))
+            );
         }
         assert!(materialize("nope").is_err());
     }
