@@ -20,16 +20,9 @@ fn main() {
         builds.push(t.elapsed().as_secs_f64());
     }
     let accel = accel.expect("built");
-    println!(
-        "terrain {} triangles, {} threads",
-        mesh.triangle_count(),
-        rayon::current_num_threads()
-    );
+    println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
     println!("build: {:.3} s (median of 3)", median(builds));
-    for (name, rays) in [
-        ("coherent", coherent_rays(1 << 20)),
-        ("incoherent", incoherent_rays(1 << 20, 1)),
-    ] {
+    for (name, rays) in [("coherent", coherent_rays(1 << 20)), ("incoherent", incoherent_rays(1 << 20, 1))] {
         let t = Instant::now();
         let f = trace_figures(&accel, &rays, 5);
         println!(

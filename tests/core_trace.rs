@@ -12,8 +12,7 @@ fn random_soup(n: usize, seed: u64) -> TriangleMesh {
     let mut r = stream(seed, 0, 0);
     for i in 0..n {
         let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 20.0 - 10.0;
-        let mut corner =
-            || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 2.0 - 1.0;
+        let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 2.0 - 1.0;
         let tri = [corner(), corner(), corner()];
         m.push_triangle(tri, if i % 2 == 0 { s } else { s2 });
     }
@@ -25,10 +24,7 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
         .map(|k| {
             let mut r = stream(seed, 1, k as u64);
             let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 30.0 - 15.0;
-            Ray::new(
-                o,
-                uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))),
-            )
+            Ray::new(o, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))))
         })
         .collect()
 }
@@ -50,10 +46,7 @@ fn bvh_matches_brute_force_on_1e5_random_rays_for_every_quality() {
     let mesh = random_soup(2000, 11);
     let rays = random_rays(100_000, 12);
     let expected: Vec<Option<(u32, f32)>> = rays.iter().map(|r| brute_force(&mesh, r)).collect();
-    assert!(
-        expected.iter().filter(|h| h.is_some()).count() > 10_000,
-        "test rays should hit often"
-    );
+    assert!(expected.iter().filter(|h| h.is_some()).count() > 10_000, "test rays should hit often");
     for quality in BuildQuality::ALL {
         let accel = Accel::build(&mesh, Vec::new(), quality);
         let got = accel.closest_hits(&rays);
@@ -77,10 +70,7 @@ fn bvh_matches_brute_force_on_1e5_random_rays_for_every_quality() {
                     let p = a * (1.0 - h.barycentric.x - h.barycentric.y)
                         + b * h.barycentric.x
                         + c * h.barycentric.y;
-                    assert!(
-                        (p - h.point).length() < 1e-3,
-                        "barycentrics reproduce the hit point"
-                    );
+                    assert!((p - h.point).length() < 1e-3, "barycentrics reproduce the hit point");
                 }
                 _ => panic!(
                     "ray {k} ({quality:?}): brute force {e:?}, BVH {:?}",
@@ -104,11 +94,7 @@ fn one_million_rays_from_inside_a_closed_subdivided_box_all_hit() {
         .map(|k| {
             let mut r = stream(99, 2, k as u64);
             let o = Vec3::new(-1.2, -0.6, -2.0)
-                + Vec3::new(
-                    uniform(&mut r) * 4.0,
-                    uniform(&mut r) * 2.2,
-                    uniform(&mut r) * 2.8,
-                );
+                + Vec3::new(uniform(&mut r) * 4.0, uniform(&mut r) * 2.2, uniform(&mut r) * 2.8);
             // Half the rays aim exactly at vertices and edges of the subdivision grid.
             let d = if k % 2 == 0 {
                 uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)))
@@ -130,21 +116,13 @@ fn secondary_rays_never_rehit_their_own_surface() {
     let mut mesh = TriangleMesh::default();
     let s = mesh.surface_id("wall");
     // A large room far from the origin, where float spacing is coarse.
-    mesh.push_box(
-        Vec3::new(1000.0, 2000.0, 0.0),
-        Vec3::new(1050.0, 2040.0, 12.0),
-        8,
-        s,
-    );
+    mesh.push_box(Vec3::new(1000.0, 2000.0, 0.0), Vec3::new(1050.0, 2040.0, 12.0), 8, s);
     let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
     let centre = Vec3::new(1025.0, 2020.0, 6.0);
     let mut rehits = 0;
     for k in 0..100_000u64 {
         let mut r = stream(5, 3, k);
-        let first = Ray::new(
-            centre,
-            uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))),
-        );
+        let first = Ray::new(centre, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))));
         let hit = accel.closest_hit(&first).expect("inside a closed room");
         // Leave the surface into the room in a random direction of the inner hemisphere.
         let n_in = hit.facing_normal();
@@ -155,13 +133,10 @@ fn secondary_rays_never_rehit_their_own_surface() {
         let second = Ray::spawn(hit.point, hit.normal, d);
         let next = accel.closest_hit(&second).expect("still inside");
         // Re-hitting the same plane (the walls are planar) is a self-intersection.
-        let same_plane = (next.point - hit.point).dot(hit.normal).abs() < 1e-3
-            && next.normal.dot(hit.normal) > 0.999;
+        let same_plane =
+            (next.point - hit.point).dot(hit.normal).abs() < 1e-3 && next.normal.dot(hit.normal) > 0.999;
         if next.primitive == hit.primitive || same_plane {
-            eprintln!(
-                "ray {k}: left {:?} at {}, came back at t = {}",
-                hit.primitive, hit.point, next.t
-            );
+            eprintln!("ray {k}: left {:?} at {}, came back at t = {}", hit.primitive, hit.point, next.t);
             rehits += 1;
         }
         // A grazing shadow ray back to the room centre is never blocked by its own surface.
@@ -181,9 +156,8 @@ fn spheres_and_triangles_share_one_closest_hit_query() {
         Vec3::new(-5.0, 5.0, 0.0),
         s,
     );
-    let spheres: Vec<Sphere> = (0..40)
-        .map(|i| Sphere::new(Vec3::new(i as f32 * 0.2 - 4.0, 0.0, 1.0), 0.05, 1))
-        .collect();
+    let spheres: Vec<Sphere> =
+        (0..40).map(|i| Sphere::new(Vec3::new(i as f32 * 0.2 - 4.0, 0.0, 1.0), 0.05, 1)).collect();
     let accel = Accel::build(&mesh, spheres, BuildQuality::default());
     let down = Ray::new(Vec3::new(-4.0, 0.0, 5.0), -Vec3::Z);
     let h = accel.closest_hit(&down).unwrap();
@@ -210,14 +184,8 @@ fn batch_queries_do_not_depend_on_thread_count() {
     let mesh = random_soup(3000, 21);
     let rays = random_rays(20_000, 22);
     let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-    let pool1 = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .unwrap();
-    let pool2 = rayon::ThreadPoolBuilder::new()
-        .num_threads(2)
-        .build()
-        .unwrap();
+    let pool1 = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+    let pool2 = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
     let a = pool1.install(|| accel.closest_triangles(&rays));
     let b = pool2.install(|| accel.closest_triangles(&rays));
     assert_eq!(a, b);

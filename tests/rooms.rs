@@ -17,21 +17,12 @@ fn bras_cr2_volume_area_and_positions() {
     let r = &w.report;
     assert!(r.is_closed() && r.is_consistently_oriented());
     // BRAS CR2: air volume 146.09 m^3 (shell minus 3 obstacles), surface 202.53 m^2.
-    assert!(
-        (r.air_volume_m3.unwrap() - 146.094).abs() < 0.01,
-        "{:?}",
-        r.air_volume_m3
-    );
+    assert!((r.air_volume_m3.unwrap() - 146.094).abs() < 0.01, "{:?}", r.air_volume_m3);
     assert!((r.total_area_m2 - 202.527).abs() < 0.01);
     assert!(w.check_acoustic_points().is_ok());
     let a = w.scene.desc.acoustic.as_ref().unwrap();
     assert_eq!((a.sources.len(), a.receivers.len()), (2, 5));
-    assert!(
-        w.scene
-            .surfaces
-            .iter()
-            .all(|s| s.material.as_ref().is_some_and(|m| m.acoustic.is_some()))
-    );
+    assert!(w.scene.surfaces.iter().all(|s| s.material.as_ref().is_some_and(|m| m.acoustic.is_some())));
 }
 
 #[test]
@@ -42,11 +33,7 @@ fn bras_cr4_flags_its_internal_sheet() {
     assert_eq!(r.open_edges, 0);
     assert!(!r.is_closed());
     // BRAS CR4: 8656.63 m^3 of air (shell 8695.68 minus 41 obstacles).
-    assert!(
-        (r.air_volume_m3.unwrap() - 8656.63).abs() < 0.1,
-        "{:?}",
-        r.air_volume_m3
-    );
+    assert!((r.air_volume_m3.unwrap() - 8656.63).abs() < 0.1, "{:?}", r.air_volume_m3);
     assert!(w.check_acoustic_points().is_ok());
 }
 
@@ -58,10 +45,7 @@ fn authored_rooms_are_closed_with_their_points_inside() {
         ("rooms/cornell_box/scene.toml", 0.1563),
     ] {
         let w = world(path);
-        let v = w
-            .report
-            .air_volume_m3
-            .unwrap_or_else(|| panic!("{path} encloses no air"));
+        let v = w.report.air_volume_m3.unwrap_or_else(|| panic!("{path} encloses no air"));
         assert!((v - volume).abs() < 1e-3 * volume, "{path}: {v} m^3");
         assert!(w.report.is_consistently_oriented(), "{path}");
         w.check_acoustic_points().unwrap_or_else(|e| panic!("{e}"));
@@ -76,12 +60,7 @@ fn inside_test_excludes_obstacles_and_the_outside() {
     assert_eq!(w.is_inside(Vec3::new(5.0, 4.0, -0.5)), Some(false));
     // CR2's obstacles (closed boxes inside the room) are not air.
     let cr2 = world("rooms/bras_cr2/scene.toml");
-    let obstacle = cr2
-        .report
-        .components
-        .iter()
-        .find(|c| c.closed && c.triangles < 100)
-        .expect("an obstacle");
+    let obstacle = cr2.report.components.iter().find(|c| c.closed && c.triangles < 100).expect("an obstacle");
     let centre = 0.5 * (obstacle.bounds.0 + obstacle.bounds.1);
     assert_eq!(cr2.is_inside(centre), Some(false));
 }

@@ -30,10 +30,7 @@ pub struct BenchRenderArgs {
 
 pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
     anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
-    let integrator: IntegratorKind = args
-        .integrator
-        .parse()
-        .map_err(|e: String| anyhow::anyhow!("{e}"))?;
+    let integrator: IntegratorKind = args.integrator.parse().map_err(|e: String| anyhow::anyhow!("{e}"))?;
     let world = World::build(scene::load(&args.scene, &LoadOptions::default())?);
     let settings = RenderSettings {
         width: args.width,
@@ -45,14 +42,11 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         background: None,
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
-    let cam: Camera = scene_camera(&world, args.width as f32 / args.height as f32)
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let cam: Camera =
+        scene_camera(&world, args.width as f32 / args.height as f32).map_err(|e| anyhow::anyhow!("{e}"))?;
     let rs = RenderScene::new(&world);
     // One warm-up run (page faults, thread pool start), then the timed runs.
-    let warm = RenderSettings {
-        spp: 1,
-        ..settings.clone()
-    };
+    let warm = RenderSettings { spp: 1, ..settings.clone() };
     render(&rs, &cam, &warm, &|_| {}).map_err(|e| anyhow::anyhow!("{e}"))?;
     let mut runs = Vec::new();
     for _ in 0..args.repeat {

@@ -47,10 +47,8 @@ pub fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
     );
     let mut rays = Vec::with_capacity(bytes.len() / 24);
     for (i, chunk) in bytes.chunks_exact(24).enumerate() {
-        let f: Vec<f32> = chunk
-            .chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect();
+        let f: Vec<f32> =
+            chunk.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
         let (o, d) = (Vec3::new(f[0], f[1], f[2]), Vec3::new(f[3], f[4], f[5]));
         anyhow::ensure!(
             o.is_finite() && d.is_finite() && d.length_squared() > 0.0,
@@ -91,10 +89,7 @@ pub fn terrain(triangles: usize) -> TriangleMesh {
     mesh.positions = (0..n * n)
         .map(|k| {
             let (i, j) = (k % n, k / n);
-            let (x, y) = (
-                i as f32 / cells as f32 * size - 500.0,
-                j as f32 / cells as f32 * size - 500.0,
-            );
+            let (x, y) = (i as f32 / cells as f32 * size - 500.0, j as f32 / cells as f32 * size - 500.0);
             Vec3::new(x, y, terrain_height(x, y))
         })
         .collect();
@@ -145,8 +140,7 @@ pub fn incoherent_rays(count: usize, seed: u64) -> Vec<Ray> {
 
 fn write_obj(path: &Path, mesh: &TriangleMesh) -> anyhow::Result<()> {
     use std::io::Write;
-    let f = std::fs::File::create(path)
-        .with_context(|| format!("{}: cannot create", path.display()))?;
+    let f = std::fs::File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
     let mut w = std::io::BufWriter::new(f);
     for p in &mesh.positions {
         writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
@@ -199,9 +193,7 @@ pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures
         let t = Instant::now();
         let tri = accel.closest_triangles(rays);
         closest_s.push(t.elapsed().as_secs_f64());
-        checksum = tri.iter().fold(0u64, |acc, h| {
-            acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1))
-        });
+        checksum = tri.iter().fold(0u64, |acc, h| acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1)));
         hits = tri.iter().filter(|h| h.is_some()).count();
         let t = Instant::now();
         let occ = accel.occluded_batch(rays);
@@ -252,12 +244,7 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
             let c = 0.5 * (lo + hi);
             let rays = incoherent_rays(args.ray_count, 1)
                 .into_iter()
-                .map(|r| {
-                    Ray::new(
-                        c + (r.origin - Vec3::new(0.0, 0.0, 25.0)) * (hi - lo) / 1000.0,
-                        r.dir,
-                    )
-                })
+                .map(|r| Ray::new(c + (r.origin - Vec3::new(0.0, 0.0, 25.0)) * (hi - lo) / 1000.0, r.dir))
                 .collect();
             vec![("random".into(), rays)]
         }

@@ -81,11 +81,7 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
             material: surf.material.as_ref().map(|m| m.name.clone()),
             area_m2: r.area_by_surface_m2.get(i).copied().unwrap_or(0.0),
             acoustic: surf.material.as_ref().is_some_and(|m| m.acoustic.is_some()),
-            radio: surf
-                .material
-                .as_ref()
-                .and_then(|m| m.radio.as_ref())
-                .map(|r| format!("{r:?}")),
+            radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| format!("{r:?}")),
         })
         .collect();
     let mut points = Vec::new();
@@ -98,20 +94,12 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         });
     };
     if let Some(a) = &s.desc.acoustic {
-        a.sources
-            .iter()
-            .for_each(|p| add("acoustic source", &p.name, p.position));
-        a.receivers
-            .iter()
-            .for_each(|p| add("acoustic receiver", &p.name, p.position));
+        a.sources.iter().for_each(|p| add("acoustic source", &p.name, p.position));
+        a.receivers.iter().for_each(|p| add("acoustic receiver", &p.name, p.position));
     }
     if let Some(rf) = &s.desc.rf {
-        rf.transmitters
-            .iter()
-            .for_each(|t| add("transmitter", &t.name, t.position));
-        rf.receivers
-            .iter()
-            .for_each(|p| add("radio receiver", &p.name, p.position));
+        rf.transmitters.iter().for_each(|t| add("transmitter", &t.name, t.position));
+        rf.receivers.iter().for_each(|p| add("radio receiver", &p.name, p.position));
     }
     for (i, p) in extra_points.iter().enumerate() {
         add("point", &format!("#{}", i + 1), *p);
@@ -144,17 +132,8 @@ pub fn format_report(r: &InfoReport) -> String {
     let mut o = String::new();
     let v3 = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
     let _ = writeln!(o, "scene:      {}", r.scene);
-    let _ = writeln!(
-        o,
-        "geometry:   {} ({} triangles, {} vertices)",
-        r.obj, r.triangles, r.vertices
-    );
-    let _ = writeln!(
-        o,
-        "bounds:     {} to {} m",
-        v3(r.bounds_min_m),
-        v3(r.bounds_max_m)
-    );
+    let _ = writeln!(o, "geometry:   {} ({} triangles, {} vertices)", r.obj, r.triangles, r.vertices);
+    let _ = writeln!(o, "bounds:     {} to {} m", v3(r.bounds_min_m), v3(r.bounds_max_m));
     let _ = writeln!(o, "surfaces:");
     for s in &r.surfaces {
         let mat = match &s.material {
@@ -169,14 +148,7 @@ pub fn format_report(r: &InfoReport) -> String {
         if let Some(radio) = &s.radio {
             props.push(format!("radio {radio}"));
         }
-        let _ = writeln!(
-            o,
-            "  {:<28} {:<24} {:>10.3} m^2  {}",
-            s.name,
-            mat,
-            s.area_m2,
-            props.join(", ")
-        );
+        let _ = writeln!(o, "  {:<28} {:<24} {:>10.3} m^2  {}", s.name, mat, s.area_m2, props.join(", "));
     }
     let _ = writeln!(o, "area:       {:.3} m^2", r.total_area_m2);
     let _ = writeln!(
@@ -189,18 +161,10 @@ pub fn format_report(r: &InfoReport) -> String {
     let _ = writeln!(
         o,
         "oriented:   {} ({} edges with flipped neighbours)",
-        if r.consistently_oriented {
-            "consistently"
-        } else {
-            "NOT consistently"
-        },
+        if r.consistently_oriented { "consistently" } else { "NOT consistently" },
         r.misoriented_edges
     );
-    let _ = writeln!(
-        o,
-        "components: {} ({} closed)",
-        r.components, r.closed_components
-    );
+    let _ = writeln!(o, "components: {} ({} closed)", r.components, r.closed_components);
     match r.air_volume_m3 {
         Some(v) => {
             let _ = writeln!(
@@ -235,9 +199,7 @@ pub fn format_report(r: &InfoReport) -> String {
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let options = LoadOptions {
-        materials_files: args.materials.clone(),
-    };
+    let options = LoadOptions { materials_files: args.materials.clone() };
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");

@@ -46,13 +46,8 @@ pub enum BenchCommand {
 /// Runs the command line; the error, if any, is for `main` to print on one line.
 pub fn run(cli: Cli) -> anyhow::Result<()> {
     if let Some(n) = cli.threads {
-        anyhow::ensure!(
-            (1..=4096).contains(&n),
-            "--threads {n}: must be between 1 and 4096"
-        );
-        rayon::ThreadPoolBuilder::new()
-            .num_threads(n)
-            .build_global()?;
+        anyhow::ensure!((1..=4096).contains(&n), "--threads {n}: must be between 1 and 4096");
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
     }
     match cli.command {
         Command::Info(args) => info::run(&args),

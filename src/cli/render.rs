@@ -64,25 +64,16 @@ pub struct RenderArgs {
 
 fn point(flag: &str, s: &Option<String>) -> anyhow::Result<Option<Vec3>> {
     s.as_deref()
-        .map(|s| {
-            super::parse_point(s)
-                .map(Vec3::from)
-                .map_err(|e| anyhow!("--{flag} {e}"))
-        })
+        .map(|s| super::parse_point(s).map(Vec3::from).map_err(|e| anyhow!("--{flag} {e}")))
         .transpose()
 }
 
 /// The settings the scene suggests, overridden by the flags.
 pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettings> {
     let desc = world.scene.desc.render.clone().unwrap_or_default();
-    let integrator_name = args
-        .integrator
-        .clone()
-        .or(desc.integrator)
-        .unwrap_or_else(|| "path".into());
-    let integrator: IntegratorKind = integrator_name
-        .parse()
-        .map_err(|e: String| anyhow!("--integrator: {e}"))?;
+    let integrator_name = args.integrator.clone().or(desc.integrator).unwrap_or_else(|| "path".into());
+    let integrator: IntegratorKind =
+        integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
     let d = RenderSettings::default();
     let s = RenderSettings {
         width: args.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
@@ -111,11 +102,7 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
             let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
             let up = point("up", &args.up)?.unwrap_or(Vec3::Z);
             let fov = args.fov_deg.unwrap_or(AUTO_FOV_DEG);
-            let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 {
-                fov
-            } else {
-                AUTO_FOV_DEG
-            };
+            let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 { fov } else { AUTO_FOV_DEG };
             let (eye, target) = Camera::auto_view(lo, hi, up, fov_ok);
             (eye, target, up, fov, (0.0, None))
         }
@@ -157,9 +144,7 @@ pub fn render_with_progress(
 pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
     // Check the output name before the (possibly long) render.
     ImageFormat::from_path(&args.output)?;
-    let options = LoadOptions {
-        materials_files: args.materials.clone(),
-    };
+    let options = LoadOptions { materials_files: args.materials.clone() };
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");

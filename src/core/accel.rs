@@ -33,8 +33,7 @@ pub enum BuildQuality {
 }
 
 impl BuildQuality {
-    pub const ALL: [BuildQuality; 3] =
-        [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
+    pub const ALL: [BuildQuality; 3] = [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
 
     fn params(self) -> BvhBuildParams {
         let mut p = match self {
@@ -111,20 +110,9 @@ impl MeshBvh {
         // The BVH keeps its own copy of the order; we keep ours next to the triangles.
         let mesh_index = std::mem::take(&mut bvh.primitive_indices);
         bvh.primitive_indices = Vec::new();
-        let ordered: Vec<TriangleRt> = mesh_index
-            .par_iter()
-            .map(|&i| mesh.triangle_rt(i as usize))
-            .collect();
-        let surface = mesh_index
-            .iter()
-            .map(|&i| mesh.surface_of_triangle[i as usize])
-            .collect();
-        Self {
-            bvh,
-            tris: ordered,
-            mesh_index,
-            surface,
-        }
+        let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
+        let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
+        Self { bvh, tris: ordered, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -143,20 +131,16 @@ impl MeshBvh {
         let mut rh = RayHit::none();
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
-            tris[id].intersect_t(&shear, r.tmin, r.tmax)
-        });
+        let hit = self
+            .bvh
+            .ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax));
         hit.then_some((rh.primitive_id as usize, rh.t))
     }
 
     fn make_hit(&self, slot: usize, t: f32, ray: &Ray) -> Hit {
         let tri = &self.tris[slot];
         let uv = tri
-            .intersect_sheared(
-                &RayShear::new(ray.origin, ray.dir),
-                f32::NEG_INFINITY,
-                f32::INFINITY,
-            )
+            .intersect_sheared(&RayShear::new(ray.origin, ray.dir), f32::NEG_INFINITY, f32::INFINITY)
             .map_or(Vec2::ZERO, |(_, uv)| uv);
         let normal = tri.normal();
         Hit {
@@ -172,14 +156,12 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_slot(ray)
-            .map(|(slot, t)| self.make_hit(slot, t, ray))
+        self.closest_slot(ray).map(|(slot, t)| self.make_hit(slot, t, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_slot(ray)
-            .map(|(slot, t)| (self.mesh_index[slot], t))
+        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot], t))
     }
 
     /// True when any triangle lies on the segment `(t_min, t_max]`.
@@ -189,9 +171,7 @@ impl MeshBvh {
         }
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| {
-            tris[id].intersect_t(&shear, r.tmin, r.tmax)
-        })
+        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax))
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
@@ -222,15 +202,9 @@ pub struct SphereSet {
 impl SphereSet {
     pub fn new(spheres: Vec<Sphere>) -> Self {
         let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
-            let bounds: Vec<Bounds> = spheres
-                .iter()
-                .map(|s| padded_bounds(s.aabb_min(), s.aabb_max()))
-                .collect();
-            build_cwbvh(
-                &bounds,
-                BvhBuildParams::medium_build(),
-                &mut Duration::default(),
-            )
+            let bounds: Vec<Bounds> =
+                spheres.iter().map(|s| padded_bounds(s.aabb_min(), s.aabb_max())).collect();
+            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default())
         });
         Self { spheres, bvh }
     }
@@ -243,9 +217,9 @@ impl SphereSet {
     fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
         match &self.bvh {
             None => (0..self.spheres.len()).for_each(f),
-            Some(bvh) => bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| {
-                f(bvh.primitive_indices[id] as usize)
-            }),
+            Some(bvh) => {
+                bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| f(bvh.primitive_indices[id] as usize))
+            }
         }
     }
 
@@ -300,10 +274,7 @@ const BATCH_CHUNK: usize = 4096;
 
 impl Accel {
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
-        Self {
-            mesh: MeshBvh::build(mesh, quality),
-            spheres: SphereSet::new(spheres),
-        }
+        Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres) }
     }
 
     /// The closest triangle or sphere hit in `(t_min, t_max]`.
@@ -357,18 +328,15 @@ fn spread_bits(v: u32) -> u64 {
 pub fn coherent_order(rays: &[Ray]) -> Vec<u32> {
     let (lo, hi) = rays
         .iter()
-        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| {
-            (lo.min(r.origin), hi.max(r.origin))
-        });
+        .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), r| (lo.min(r.origin), hi.max(r.origin)));
     let scale = 1023.0 / (hi - lo).max(Vec3::splat(1e-12));
     let mut keyed: Vec<(u64, u32)> = rays
         .par_iter()
         .enumerate()
         .map(|(i, r)| {
             let q = ((r.origin - lo) * scale).as_uvec3();
-            let octant = u64::from(r.dir.x < 0.0)
-                | u64::from(r.dir.y < 0.0) << 1
-                | u64::from(r.dir.z < 0.0) << 2;
+            let octant =
+                u64::from(r.dir.x < 0.0) | u64::from(r.dir.y < 0.0) << 1 | u64::from(r.dir.z < 0.0) << 2;
             let morton = spread_bits(q.x) | spread_bits(q.y) << 1 | spread_bits(q.z) << 2;
             ((octant << 30) | morton, i as u32)
         })
@@ -379,20 +347,14 @@ pub fn coherent_order(rays: &[Ray]) -> Vec<u32> {
 
 /// `f` of every ray, computed in parallel in [`coherent_order`] and returned in input order.
 /// The order changes speed only: each result depends on its own ray alone.
-fn map_in_coherent_order<T: Send + Clone + Default>(
-    rays: &[Ray],
-    f: impl Fn(&Ray) -> T + Sync,
-) -> Vec<T> {
+fn map_in_coherent_order<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&Ray) -> T + Sync) -> Vec<T> {
     let order = coherent_order(rays);
     let mut sorted = vec![T::default(); rays.len()];
-    sorted
-        .par_chunks_mut(BATCH_CHUNK)
-        .zip(order.par_chunks(BATCH_CHUNK))
-        .for_each(|(o, idx)| {
-            for (o, &i) in o.iter_mut().zip(idx) {
-                *o = f(&rays[i as usize]);
-            }
-        });
+    sorted.par_chunks_mut(BATCH_CHUNK).zip(order.par_chunks(BATCH_CHUNK)).for_each(|(o, idx)| {
+        for (o, &i) in o.iter_mut().zip(idx) {
+            *o = f(&rays[i as usize]);
+        }
+    });
     let mut out = vec![T::default(); rays.len()];
     for (value, &i) in sorted.into_iter().zip(&order) {
         out[i as usize] = value;
@@ -417,13 +379,11 @@ pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> b
         .iter()
         .filter(|d| {
             let mut ts: Vec<f32> = Vec::new();
-            accel
-                .mesh
-                .for_each_hit(&Ray::new(p, Vec3::from(**d).normalize()), |h| {
-                    if counts(h.primitive) {
-                        ts.push(h.t);
-                    }
-                });
+            accel.mesh.for_each_hit(&Ray::new(p, Vec3::from(**d).normalize()), |h| {
+                if counts(h.primitive) {
+                    ts.push(h.t);
+                }
+            });
             ts.sort_by(f32::total_cmp);
             ts.dedup_by(|a, b| (*a - *b).abs() <= 1e-5 * b.abs().max(1.0));
             ts.len() % 2 == 1

@@ -37,10 +37,6 @@ impl Hit {
     /// The normal flipped to face the incoming ray.
     #[inline]
     pub fn facing_normal(&self) -> Vec3 {
-        if self.front_face {
-            self.normal
-        } else {
-            -self.normal
-        }
+        if self.front_face { self.normal } else { -self.normal }
     }
 }

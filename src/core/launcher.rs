@@ -91,13 +91,7 @@ pub struct Launch {
 }
 
 /// Traces one ray to its end, depositing into `accum`.
-pub fn trace_ray<P: Propagation>(
-    accel: &Accel,
-    prop: &P,
-    launch: &Launch,
-    index: u64,
-    accum: &mut P::Accum,
-) {
+pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index: u64, accum: &mut P::Accum) {
     let mut rng = stream(launch.seed, launch.domain, index);
     let dir = match launch.pattern {
         LaunchPattern::Fibonacci => {
@@ -139,13 +133,7 @@ pub fn launch<P: Propagation>(
     launch: &Launch,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
-    launch_range(
-        accel,
-        prop,
-        launch,
-        0..launch.rays.div_ceil(LAUNCH_BLOCK as u64),
-        progress,
-    )
+    launch_range(accel, prop, launch, 0..launch.rays.div_ceil(LAUNCH_BLOCK as u64), progress)
 }
 
 /// Like [`launch`] for the blocks in `blocks` only (a share of the work, e.g. one MPI rank's).
@@ -238,17 +226,11 @@ mod tests {
         };
         let (segments, length, hits) = run(1);
         // No ray escapes and none stops early: total length = rays x max path.
-        assert!(
-            (length - 5000.0 * 100.0).abs() < 1e-3 * 5000.0 * 100.0,
-            "{length}"
-        );
+        assert!((length - 5000.0 * 100.0).abs() < 1e-3 * 5000.0 * 100.0, "{length}");
         assert_eq!(segments, hits + 5000);
         // Mean free path of a box, 4V/S = 4 * 240 / 268 = 3.58 m: about 100 / 3.58 hits per ray.
         let mean_free_path = 5000.0 * 100.0 / hits as f64;
-        assert!(
-            (mean_free_path - 4.0 * 240.0 / 268.0).abs() < 0.1,
-            "{mean_free_path}"
-        );
+        assert!((mean_free_path - 4.0 * 240.0 / 268.0).abs() < 0.1, "{mean_free_path}");
         assert_eq!(run(2), (segments, length, hits));
     }
 }

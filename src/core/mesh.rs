@@ -25,11 +25,7 @@ impl TriangleMesh {
     #[inline]
     pub fn corners(&self, i: usize) -> [Vec3; 3] {
         let [a, b, c] = self.triangles[i];
-        [
-            self.positions[a as usize],
-            self.positions[b as usize],
-            self.positions[c as usize],
-        ]
+        [self.positions[a as usize], self.positions[b as usize], self.positions[c as usize]]
     }
 
     /// Triangle `i` in intersection layout.
@@ -46,11 +42,7 @@ impl TriangleMesh {
 
     /// Axis-aligned bounds `(min, max)` of the used vertices; `None` for an empty mesh.
     pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
-        let mut it = self
-            .triangles
-            .iter()
-            .flatten()
-            .map(|&i| self.positions[i as usize]);
+        let mut it = self.triangles.iter().flatten().map(|&i| self.positions[i as usize]);
         let first = it.next()?;
         Some(it.fold((first, first), |(lo, hi), p| (lo.min(p), hi.max(p))))
     }
@@ -96,14 +88,8 @@ impl TriangleMesh {
             }
         };
         // Each face: fixed axis and side, then the (u, v) axes ordered so u x v points outward.
-        let faces: [(usize, usize, usize, usize); 6] = [
-            (2, 0, 1, 0),
-            (2, n, 0, 1),
-            (1, 0, 0, 2),
-            (1, n, 2, 0),
-            (0, 0, 2, 1),
-            (0, n, 1, 2),
-        ];
+        let faces: [(usize, usize, usize, usize); 6] =
+            [(2, 0, 1, 0), (2, n, 0, 1), (1, 0, 0, 2), (1, n, 2, 0), (0, 0, 2, 1), (0, n, 1, 2)];
         for (fixed, side, ua, va) in faces {
             let base = self.positions.len() as u32;
             for j in 0..=n {

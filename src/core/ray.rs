@@ -21,22 +21,12 @@ const OFFSET_ABSOLUTE_M: f32 = 1.0e-6;
 impl Ray {
     /// A ray from `origin` along `dir` with an unbounded range.
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
-        Self {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        }
+        Self { origin, dir, t_min: 0.0, t_max: f32::INFINITY }
     }
 
     /// A ray from `origin` along `dir` limited to `[0, t_max]`.
     pub fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Self {
-        Self {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max,
-        }
+        Self { origin, dir, t_min: 0.0, t_max }
     }
 
     /// The point at parameter `t`.
@@ -58,19 +48,10 @@ impl Ray {
     pub fn spawn_to(point: Vec3, geometric_normal: Vec3, target: Vec3) -> Self {
         let to = target - point;
         let distance = to.length();
-        let dir = if distance > 0.0 {
-            to / distance
-        } else {
-            geometric_normal
-        };
+        let dir = if distance > 0.0 { to / distance } else { geometric_normal };
         let origin = offset_origin(point, geometric_normal, dir);
         let remaining = (target - origin).length();
-        Self {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max: remaining * (1.0 - 1.0e-5),
-        }
+        Self { origin, dir, t_min: 0.0, t_max: remaining * (1.0 - 1.0e-5) }
     }
 }
 
@@ -78,11 +59,7 @@ impl Ray {
 #[inline]
 pub fn offset_origin(point: Vec3, geometric_normal: Vec3, dir: Vec3) -> Vec3 {
     let scale = OFFSET_ABSOLUTE_M + OFFSET_RELATIVE * point.abs().max_element();
-    let side = if geometric_normal.dot(dir) >= 0.0 {
-        1.0
-    } else {
-        -1.0
-    };
+    let side = if geometric_normal.dot(dir) >= 0.0 { 1.0 } else { -1.0 };
     point + geometric_normal * (scale * side)
 }
 

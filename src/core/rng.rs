@@ -37,22 +37,10 @@ mod tests {
 
     #[test]
     fn same_key_same_stream_different_key_different_stream() {
-        let a: Vec<u32> = (0..4)
-            .map(|_| 0)
-            .scan(stream(7, 1, 42), |r, _| Some(r.next_u32()))
-            .collect();
-        let b: Vec<u32> = (0..4)
-            .map(|_| 0)
-            .scan(stream(7, 1, 42), |r, _| Some(r.next_u32()))
-            .collect();
-        let c: Vec<u32> = (0..4)
-            .map(|_| 0)
-            .scan(stream(7, 1, 43), |r, _| Some(r.next_u32()))
-            .collect();
-        let d: Vec<u32> = (0..4)
-            .map(|_| 0)
-            .scan(stream(7, 2, 42), |r, _| Some(r.next_u32()))
-            .collect();
+        let a: Vec<u32> = (0..4).map(|_| 0).scan(stream(7, 1, 42), |r, _| Some(r.next_u32())).collect();
+        let b: Vec<u32> = (0..4).map(|_| 0).scan(stream(7, 1, 42), |r, _| Some(r.next_u32())).collect();
+        let c: Vec<u32> = (0..4).map(|_| 0).scan(stream(7, 1, 43), |r, _| Some(r.next_u32())).collect();
+        let d: Vec<u32> = (0..4).map(|_| 0).scan(stream(7, 2, 42), |r, _| Some(r.next_u32())).collect();
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, d);

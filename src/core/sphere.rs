@@ -15,11 +15,7 @@ pub struct Sphere {
 
 impl Sphere {
     pub fn new(center: Vec3, radius_m: f32, surface: SurfaceId) -> Self {
-        Self {
-            center,
-            radius_m,
-            surface,
-        }
+        Self { center, radius_m, surface }
     }
 
     /// Both roots `t0 <= t1` of `|o + t d - c| = r` for a unit direction `d`, or `None` when
@@ -61,11 +57,7 @@ impl Sphere {
         let n = ((ray.at(t) - self.center) / self.radius_m).normalize_or_zero();
         let phi = n.y.atan2(n.x).rem_euclid(std::f32::consts::TAU);
         let theta = n.z.clamp(-1.0, 1.0).acos();
-        Some((
-            t,
-            n,
-            Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI),
-        ))
+        Some((t, n, Vec2::new(phi / std::f32::consts::TAU, theta / std::f32::consts::PI)))
     }
 
     /// Length of the ray segment `[t_min, t_max]` inside the sphere (metres for unit `dir`).
@@ -100,9 +92,7 @@ mod tests {
         assert!((t - 8.0).abs() < 1e-5);
         assert!((n + Vec3::Z).length() < 1e-5);
         // Off-axis: x = 1 -> t = 10 - sqrt(4 - 1).
-        let (t, _, _) = s
-            .intersect(&Ray::new(Vec3::new(1.0, 0.0, 0.0), Vec3::Z))
-            .unwrap();
+        let (t, _, _) = s.intersect(&Ray::new(Vec3::new(1.0, 0.0, 0.0), Vec3::Z)).unwrap();
         assert!((t - (10.0 - 3f32.sqrt())).abs() < 1e-5);
     }
 
@@ -111,14 +101,8 @@ mod tests {
         let s = Sphere::new(Vec3::ZERO, 1.0, 0);
         let (t, n, _) = s.intersect(&Ray::new(Vec3::ZERO, Vec3::X)).unwrap();
         assert!((t - 1.0).abs() < 1e-6 && (n - Vec3::X).length() < 1e-6);
-        assert!(
-            s.intersect(&Ray::new(Vec3::new(0.0, 1.5, 0.0), Vec3::X))
-                .is_none()
-        );
-        assert!(
-            s.intersect(&Ray::new(Vec3::new(3.0, 0.0, 0.0), Vec3::X))
-                .is_none()
-        );
+        assert!(s.intersect(&Ray::new(Vec3::new(0.0, 1.5, 0.0), Vec3::X)).is_none());
+        assert!(s.intersect(&Ray::new(Vec3::new(3.0, 0.0, 0.0), Vec3::X)).is_none());
     }
 
     #[test]
@@ -136,9 +120,6 @@ mod tests {
         assert!((s.chord_length(&ray) - 2.0 * 0.8).abs() < 1e-5);
         let stop_inside = Ray::segment(Vec3::new(-5.0, 0.0, 0.0), Vec3::X, 5.0);
         assert!((s.chord_length(&stop_inside) - 1.0).abs() < 1e-5);
-        assert_eq!(
-            s.chord_length(&Ray::new(Vec3::new(-5.0, 2.0, 0.0), Vec3::X)),
-            0.0
-        );
+        assert_eq!(s.chord_length(&Ray::new(Vec3::new(-5.0, 2.0, 0.0), Vec3::X)), 0.0);
     }
 }

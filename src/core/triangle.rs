@@ -57,11 +57,7 @@ pub struct TriangleRt {
 
 impl TriangleRt {
     pub fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
-        Self {
-            v0: v0.into(),
-            v1: v1.into(),
-            v2: v2.into(),
-        }
+        Self { v0: v0.into(), v1: v1.into(), v2: v2.into() }
     }
 
     pub fn vertices(&self) -> [Vec3; 3] {
@@ -70,10 +66,7 @@ impl TriangleRt {
 
     /// Unit normal by the right-hand rule on (v0, v1, v2).
     pub fn normal(&self) -> Vec3 {
-        (self.v1 - self.v0)
-            .cross(self.v2 - self.v0)
-            .normalize_or_zero()
-            .into()
+        (self.v1 - self.v0).cross(self.v2 - self.v0).normalize_or_zero().into()
     }
 
     /// Area in square metres.
@@ -92,8 +85,7 @@ impl TriangleRt {
     /// Distance only; `f32::INFINITY` on a miss. The hot path of BVH traversal.
     #[inline(always)]
     pub fn intersect_t(&self, shear: &RayShear, t_min: f32, t_max: f32) -> f32 {
-        self.intersect_sheared(shear, t_min, t_max)
-            .map_or(f32::INFINITY, |(t, _)| t)
+        self.intersect_sheared(shear, t_min, t_max).map_or(f32::INFINITY, |(t, _)| t)
     }
 
     #[inline(always)]
@@ -109,14 +101,8 @@ impl TriangleRt {
         let mut w = bx * ay - by * ax;
         if u == 0.0 || v == 0.0 || w == 0.0 {
             // Exact zero: decide in double precision (Woop et al., sec. 3).
-            let (ax, ay, bx, by, cx, cy) = (
-                f64::from(ax),
-                f64::from(ay),
-                f64::from(bx),
-                f64::from(by),
-                f64::from(cx),
-                f64::from(cy),
-            );
+            let (ax, ay, bx, by, cx, cy) =
+                (f64::from(ax), f64::from(ay), f64::from(bx), f64::from(by), f64::from(cx), f64::from(cy));
             u = (cx * by - cy * bx) as f32;
             v = (ax * cy - ay * cx) as f32;
             w = (bx * ay - by * ax) as f32;
@@ -132,11 +118,7 @@ impl TriangleRt {
         let t_scaled = u * az + v * bz + w * cz;
         let inv_det = 1.0 / det;
         let t = t_scaled * inv_det;
-        if t > t_min && t <= t_max {
-            Some((t, Vec2::new(v * inv_det, w * inv_det)))
-        } else {
-            None
-        }
+        if t > t_min && t <= t_max { Some((t, Vec2::new(v * inv_det, w * inv_det))) } else { None }
     }
 }
 
@@ -172,31 +154,16 @@ mod tests {
     #[test]
     fn misses_outside_behind_and_parallel() {
         let tri = unit_triangle();
-        assert!(
-            tri.intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z))
-                .is_none()
-        );
-        assert!(
-            tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::Z))
-                .is_none()
-        );
-        assert!(
-            tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::X))
-                .is_none()
-        );
-        assert!(
-            tri.intersect(&Ray::segment(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.5))
-                .is_none()
-        );
+        assert!(tri.intersect(&Ray::new(Vec3::new(0.8, 0.8, 1.0), -Vec3::Z)).is_none());
+        assert!(tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, 1.0), Vec3::Z)).is_none());
+        assert!(tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, 0.0), Vec3::X)).is_none());
+        assert!(tri.intersect(&Ray::segment(Vec3::new(0.2, 0.2, 1.0), -Vec3::Z, 0.5)).is_none());
     }
 
     #[test]
     fn two_sided_and_normal_by_right_hand_rule() {
         let tri = unit_triangle();
-        assert!(
-            tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z))
-                .is_some()
-        );
+        assert!(tri.intersect(&Ray::new(Vec3::new(0.2, 0.2, -1.0), Vec3::Z)).is_some());
         assert!((tri.normal() - Vec3::Z).length() < 1e-6);
         assert!((tri.area() - 0.5).abs() < 1e-7);
         let [a, b, c] = tri.vertices();

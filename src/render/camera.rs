@@ -31,13 +31,7 @@ pub struct Camera {
 impl Camera {
     /// A camera at `eye` looking at `target` with `up` as the image's up direction and a
     /// vertical field of view of `fov_deg`; errors say which input is unusable.
-    pub fn look_at(
-        eye: Vec3,
-        target: Vec3,
-        up: Vec3,
-        fov_deg: f32,
-        aspect: f32,
-    ) -> Result<Self, String> {
+    pub fn look_at(eye: Vec3, target: Vec3, up: Vec3, fov_deg: f32, aspect: f32) -> Result<Self, String> {
         for (name, v) in [("eye", eye), ("target", target), ("up", up)] {
             if !v.is_finite() {
                 return Err(format!("camera {name} {v} is not finite"));
@@ -50,14 +44,10 @@ impl Camera {
         let forward = view.normalize();
         let right = forward.cross(up);
         if up.length_squared() == 0.0 || right.length() <= 1.0e-6 * up.length() {
-            return Err(format!(
-                "camera up {up} is zero or parallel to the viewing direction"
-            ));
+            return Err(format!("camera up {up} is zero or parallel to the viewing direction"));
         }
         if !(fov_deg.is_finite() && fov_deg > 0.0 && fov_deg < 179.0) {
-            return Err(format!(
-                "field of view {fov_deg} degrees: must be in (0, 179)"
-            ));
+            return Err(format!("field of view {fov_deg} degrees: must be in (0, 179)"));
         }
         if !(aspect.is_finite() && aspect > 0.0) {
             return Err(format!("aspect ratio {aspect} is not positive"));
@@ -77,28 +67,17 @@ impl Camera {
 
     /// The camera a scene's `[camera]` describes.
     pub fn from_desc(d: &CameraDesc, aspect: f32) -> Result<Self, String> {
-        let mut c = Self::look_at(
-            Vec3::from(d.eye),
-            Vec3::from(d.target),
-            Vec3::from(d.up),
-            d.fov_deg,
-            aspect,
-        )?;
+        let mut c =
+            Self::look_at(Vec3::from(d.eye), Vec3::from(d.target), Vec3::from(d.up), d.fov_deg, aspect)?;
         c.set_lens(d.aperture_radius_m, d.focus_distance_m)?;
         Ok(c)
     }
 
     /// Sets the thin lens: radius `aperture_radius_m` (0 = pinhole) focused at `focus_distance_m`
     /// (default: the distance to the target).
-    pub fn set_lens(
-        &mut self,
-        aperture_radius_m: f32,
-        focus_distance_m: Option<f32>,
-    ) -> Result<(), String> {
+    pub fn set_lens(&mut self, aperture_radius_m: f32, focus_distance_m: Option<f32>) -> Result<(), String> {
         if !(aperture_radius_m.is_finite() && aperture_radius_m >= 0.0) {
-            return Err(format!(
-                "aperture radius {aperture_radius_m} m must be >= 0"
-            ));
+            return Err(format!("aperture radius {aperture_radius_m} m must be >= 0"));
         }
         if let Some(f) = focus_distance_m {
             if !(f.is_finite() && f > 0.0) {
@@ -161,8 +140,7 @@ mod tests {
 
     #[test]
     fn thin_lens_rays_meet_on_the_focal_plane() {
-        let mut c =
-            Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 5.0, 0.0), Vec3::Z, 40.0, 1.0).unwrap();
+        let mut c = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 5.0, 0.0), Vec3::Z, 40.0, 1.0).unwrap();
         c.set_lens(0.1, Some(3.0)).unwrap();
         let film = Vec2::new(0.3, 0.6);
         let a = c.ray(film, Vec2::new(0.1, 0.2));
@@ -178,8 +156,6 @@ mod tests {
         assert!(Camera::look_at(Vec3::ONE, Vec3::ONE, Vec3::Z, 40.0, 1.0).is_err());
         assert!(Camera::look_at(Vec3::ZERO, Vec3::Z, Vec3::Z, 40.0, 1.0).is_err());
         assert!(Camera::look_at(Vec3::ZERO, Vec3::X, Vec3::Z, 0.0, 1.0).is_err());
-        assert!(
-            Camera::look_at(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X, Vec3::Z, 40.0, 1.0).is_err()
-        );
+        assert!(Camera::look_at(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::X, Vec3::Z, 40.0, 1.0).is_err());
     }
 }

@@ -21,14 +21,7 @@ pub enum Light {
     /// Isotropic point light of radiant intensity `intensity` (W/sr per channel).
     Point { position: Vec3, intensity: Vec3 },
     /// Emissive triangle `p0, p0 + e1, p0 + e2` with unit normal `normal` and radiance `le`.
-    Triangle {
-        p0: Vec3,
-        e1: Vec3,
-        e2: Vec3,
-        normal: Vec3,
-        area: f32,
-        le: Vec3,
-    },
+    Triangle { p0: Vec3, e1: Vec3, e2: Vec3, normal: Vec3, area: f32, le: Vec3 },
     /// Emissive sphere (emitting outwards) of radiance `le`.
     Sphere { center: Vec3, radius: f32, le: Vec3 },
 }
@@ -72,31 +65,18 @@ impl Light {
     /// the radiant intensity it sends along unit `dir` (from the light towards the receiver).
     pub fn as_point(&self, dir: Vec3) -> (Vec3, Vec3) {
         match *self {
-            Light::Point {
-                position,
-                intensity,
-            } => (position, intensity),
-            Light::Triangle {
-                p0,
-                e1,
-                e2,
-                normal,
-                area,
-                le,
-            } => (p0 + (e1 + e2) / 3.0, le * (area * normal.dot(dir).max(0.0))),
-            Light::Sphere { center, radius, le } => {
-                (center + radius * dir, le * (PI * radius * radius))
+            Light::Point { position, intensity } => (position, intensity),
+            Light::Triangle { p0, e1, e2, normal, area, le } => {
+                (p0 + (e1 + e2) / 3.0, le * (area * normal.dot(dir).max(0.0)))
             }
+            Light::Sphere { center, radius, le } => (center + radius * dir, le * (PI * radius * radius)),
         }
     }
 
     /// Samples the light from shading point `p` with `u` in `[0,1)^2`.
     pub fn sample(&self, p: Vec3, u: Vec2) -> Option<LightSample> {
         match *self {
-            Light::Point {
-                position,
-                intensity,
-            } => {
+            Light::Point { position, intensity } => {
                 let to = position - p;
                 let d2 = to.length_squared();
                 if d2 == 0.0 {
@@ -112,14 +92,7 @@ impl Light {
                     delta: true,
                 })
             }
-            Light::Triangle {
-                p0,
-                e1,
-                e2,
-                normal,
-                area,
-                le,
-            } => {
+            Light::Triangle { p0, e1, e2, normal, area, le } => {
                 let b = uniform_triangle(u);
                 let q = p0 + b.x * e1 + b.y * e2;
                 let to = q - p;
@@ -131,14 +104,7 @@ impl Light {
                     return None;
                 }
                 let pdf = d2 / (cos_l * area);
-                Some(LightSample {
-                    wi,
-                    distance,
-                    point: q,
-                    li: le,
-                    pdf,
-                    delta: false,
-                })
+                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false })
             }
             Light::Sphere { center, radius, le } => {
                 let to_c = center - p;
@@ -155,11 +121,7 @@ impl Light {
                 let axis = to_c / dc;
                 let sin2_max = r2 / dc2;
                 let cos_max = (1.0 - sin2_max).max(0.0).sqrt();
-                let one_minus_cos_max = if sin2_max < 1.0e-4 {
-                    0.5 * sin2_max
-                } else {
-                    1.0 - cos_max
-                };
+                let one_minus_cos_max = if sin2_max < 1.0e-4 { 0.5 * sin2_max } else { 1.0 - cos_max };
                 let cos_t = 1.0 - u.x * one_minus_cos_max;
                 let sin_t = (1.0 - cos_t * cos_t).max(0.0).sqrt();
                 let phi = 2.0 * PI * u.y;
@@ -198,11 +160,8 @@ impl Light {
                 if sin2_max >= 1.0 / 1.0001 {
                     return 0.0;
                 }
-                let one_minus_cos_max = if sin2_max < 1.0e-4 {
-                    0.5 * sin2_max
-                } else {
-                    1.0 - (1.0 - sin2_max).sqrt()
-                };
+                let one_minus_cos_max =
+                    if sin2_max < 1.0e-4 { 0.5 * sin2_max } else { 1.0 - (1.0 - sin2_max).sqrt() };
                 1.0 / (2.0 * PI * one_minus_cos_max)
             }
         }
@@ -227,19 +186,9 @@ pub struct Lights {
 impl Lights {
     /// Collects point lights plus every triangle and sphere whose surface emits, per
     /// `emission[surface_id]`.
-    pub fn new(
-        points: &[(Vec3, Vec3)],
-        mesh: &TriangleMesh,
-        spheres: &[Sphere],
-        emission: &[Vec3],
-    ) -> Self {
-        let mut lights: Vec<Light> = points
-            .iter()
-            .map(|&(position, intensity)| Light::Point {
-                position,
-                intensity,
-            })
-            .collect();
+    pub fn new(points: &[(Vec3, Vec3)], mesh: &TriangleMesh, spheres: &[Sphere], emission: &[Vec3]) -> Self {
+        let mut lights: Vec<Light> =
+            points.iter().map(|&(position, intensity)| Light::Point { position, intensity }).collect();
         let mut triangle_light = vec![NOT_A_LIGHT; mesh.triangle_count()];
         for (i, tl) in triangle_light.iter_mut().enumerate() {
             let le = emission[mesh.surface_of_triangle[i] as usize];
@@ -253,31 +202,17 @@ impl Lights {
                 continue;
             }
             *tl = lights.len() as u32;
-            lights.push(Light::Triangle {
-                p0: a,
-                e1: b - a,
-                e2: c - a,
-                normal: cross.normalize(),
-                area,
-                le,
-            });
+            lights.push(Light::Triangle { p0: a, e1: b - a, e2: c - a, normal: cross.normalize(), area, le });
         }
         let mut sphere_light = vec![NOT_A_LIGHT; spheres.len()];
         for (s, sl) in spheres.iter().zip(&mut sphere_light) {
             let le = emission[s.surface as usize];
             if le.max_element() > 0.0 {
                 *sl = lights.len() as u32;
-                lights.push(Light::Sphere {
-                    center: s.center,
-                    radius: s.radius_m,
-                    le,
-                });
+                lights.push(Light::Sphere { center: s.center, radius: s.radius_m, le });
             }
         }
-        let weights: Vec<f32> = lights
-            .iter()
-            .map(|l| l.power().element_sum().max(0.0))
-            .collect();
+        let weights: Vec<f32> = lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
         let total: f32 = weights.iter().sum();
         let pmf: Vec<f32> = if total > 0.0 {
             weights.iter().map(|w| w / total).collect()
@@ -292,13 +227,7 @@ impl Lights {
                 acc
             })
             .collect();
-        Self {
-            lights,
-            pmf,
-            cdf,
-            triangle_light,
-            sphere_light,
-        }
+        Self { lights, pmf, cdf, triangle_light, sphere_light }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -311,10 +240,7 @@ impl Lights {
         if self.lights.is_empty() {
             return None;
         }
-        let i = self
-            .cdf
-            .partition_point(|&c| c <= u)
-            .min(self.lights.len() - 1);
+        let i = self.cdf.partition_point(|&c| c <= u).min(self.lights.len() - 1);
         Some((i, self.pmf[i]))
     }
 
@@ -327,19 +253,13 @@ impl Lights {
     /// The light that mesh triangle `t` is, if any.
     #[inline]
     pub fn of_triangle(&self, t: u32) -> Option<usize> {
-        self.triangle_light
-            .get(t as usize)
-            .filter(|&&l| l != NOT_A_LIGHT)
-            .map(|&l| l as usize)
+        self.triangle_light.get(t as usize).filter(|&&l| l != NOT_A_LIGHT).map(|&l| l as usize)
     }
 
     /// The light that sphere `s` is, if any.
     #[inline]
     pub fn of_sphere(&self, s: u32) -> Option<usize> {
-        self.sphere_light
-            .get(s as usize)
-            .filter(|&&l| l != NOT_A_LIGHT)
-            .map(|&l| l as usize)
+        self.sphere_light.get(s as usize).filter(|&&l| l != NOT_A_LIGHT).map(|&l| l as usize)
     }
 }
 
@@ -353,43 +273,23 @@ mod tests {
     #[test]
     fn sampled_irradiance_matches_closed_form() {
         // Sphere of radius r at distance d on the normal: E = pi Le (r/d)^2.
-        let s = Light::Sphere {
-            center: Vec3::new(0.0, 0.0, 2.0),
-            radius: 0.5,
-            le: Vec3::ONE,
-        };
+        let s = Light::Sphere { center: Vec3::new(0.0, 0.0, 2.0), radius: 0.5, le: Vec3::ONE };
         let mut rng = stream(1, 0, 0);
         let n = 100_000;
         let mut e = 0.0;
         for _ in 0..n {
-            let ls = s
-                .sample(Vec3::ZERO, Vec2::new(uniform(&mut rng), uniform(&mut rng)))
-                .unwrap();
+            let ls = s.sample(Vec3::ZERO, Vec2::new(uniform(&mut rng), uniform(&mut rng))).unwrap();
             assert!((ls.point - Vec3::new(0.0, 0.0, 2.0)).length() - 0.5 < 1e-4);
-            assert!(
-                (s.pdf(Vec3::ZERO, ls.wi, ls.point, Vec3::ZERO) - ls.pdf).abs() < 1e-3 * ls.pdf
-            );
+            assert!((s.pdf(Vec3::ZERO, ls.wi, ls.point, Vec3::ZERO) - ls.pdf).abs() < 1e-3 * ls.pdf);
             e += ls.li.x * ls.wi.z / ls.pdf;
         }
         let expect = PI * 0.25 / 4.0;
-        assert!(
-            (e / n as f32 - expect).abs() < 0.01 * expect,
-            "{} vs {expect}",
-            e / n as f32
-        );
+        assert!((e / n as f32 - expect).abs() < 0.01 * expect, "{} vs {expect}", e / n as f32);
         // Square light 2 x 2 at height 1 facing down, as two triangles: E = Le * 4 * F, with the
         // point-to-parallel-rectangle form factor, corner formula summed over four quadrants.
         let le = Vec3::ONE;
-        let corners = [
-            Vec3::new(-1.0, -1.0, 1.0),
-            Vec3::new(1.0, -1.0, 1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-        ];
-        let corners2 = [
-            Vec3::new(-1.0, -1.0, 1.0),
-            Vec3::new(1.0, 1.0, 1.0),
-            Vec3::new(-1.0, 1.0, 1.0),
-        ];
+        let corners = [Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, -1.0, 1.0), Vec3::new(1.0, 1.0, 1.0)];
+        let corners2 = [Vec3::new(-1.0, -1.0, 1.0), Vec3::new(1.0, 1.0, 1.0), Vec3::new(-1.0, 1.0, 1.0)];
         let mut mesh = TriangleMesh::default();
         let id = mesh.surface_id("light");
         // Wound so the normal points down (-z).
@@ -410,10 +310,6 @@ mod tests {
         // F = 1/(2 pi) [a/sqrt(1+a^2) atan(b/sqrt(1+a^2)) + b/sqrt(1+b^2) atan(a/sqrt(1+b^2))].
         let f = (1.0 / (2.0 * PI)) * 2.0 * (1.0 / 2f32.sqrt()) * (1.0 / 2f32.sqrt()).atan();
         let expect = PI * 4.0 * f;
-        assert!(
-            (e / n as f32 - expect).abs() < 0.01 * expect,
-            "{} vs {expect}",
-            e / n as f32
-        );
+        assert!((e / n as f32 - expect).abs() < 0.01 * expect, "{} vs {expect}", e / n as f32);
     }
 }

@@ -86,10 +86,7 @@ impl FromStr for IntegratorKind {
             "whitted" => Ok(Self::Whitted),
             "distributed" => Ok(Self::Distributed),
             "path" => Ok(Self::Path),
-            _ => Err(format!(
-                "unknown integrator \"{s}\" (known: {})",
-                Self::NAMES.join(", ")
-            )),
+            _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
 }
@@ -128,19 +125,14 @@ impl RenderSettings {
     pub fn validate(&self) -> Result<(), String> {
         for (name, v) in [("width", self.width), ("height", self.height)] {
             if !(1..=MAX_IMAGE_SIDE).contains(&v) {
-                return Err(format!(
-                    "{name} {v}: must be between 1 and {MAX_IMAGE_SIDE} pixels"
-                ));
+                return Err(format!("{name} {v}: must be between 1 and {MAX_IMAGE_SIDE} pixels"));
             }
         }
         if !(1..=MAX_SPP).contains(&self.spp) {
             return Err(format!("spp {}: must be between 1 and {MAX_SPP}", self.spp));
         }
         if self.max_depth > MAX_DEPTH {
-            return Err(format!(
-                "max depth {}: must be at most {MAX_DEPTH}",
-                self.max_depth
-            ));
+            return Err(format!("max depth {}: must be at most {MAX_DEPTH}", self.max_depth));
         }
         if let Some(b) = self.background
             && !(b.is_finite() && b.min_element() >= 0.0)
@@ -161,29 +153,17 @@ pub struct SurfaceOptics {
 
 impl SurfaceOptics {
     pub fn diffuse(albedo: Vec3) -> Self {
-        Self {
-            bsdf: Bsdf::Lambert { albedo },
-            emission: Vec3::ZERO,
-        }
+        Self { bsdf: Bsdf::Lambert { albedo }, emission: Vec3::ZERO }
     }
 
     /// From propsim's optical material properties; GGX `alpha = roughness^2` (Burley 2012).
     pub fn from_optical(o: &OpticalProps) -> Self {
         let bsdf = match o.kind {
             OpticalKind::Diffuse => Bsdf::Lambert { albedo: o.color },
-            OpticalKind::Metal => Bsdf::Metal {
-                f0: o.color,
-                alpha: o.roughness * o.roughness,
-            },
-            OpticalKind::Dielectric => Bsdf::Dielectric {
-                eta: o.ior,
-                tint: o.color,
-            },
+            OpticalKind::Metal => Bsdf::Metal { f0: o.color, alpha: o.roughness * o.roughness },
+            OpticalKind::Dielectric => Bsdf::Dielectric { eta: o.ior, tint: o.color },
         };
-        Self {
-            bsdf,
-            emission: o.emission,
-        }
+        Self { bsdf, emission: o.emission }
     }
 
     /// A surface's optics: the material's `optical` if it has one, else its MTL entry
@@ -196,38 +176,20 @@ impl SurfaceOptics {
         let Some(m) = &s.mtl else {
             return Self::from_optical(&OpticalProps::default());
         };
-        let v = |a: Option<[f32; 3]>| {
-            a.map(Vec3::from)
-                .filter(|v| v.is_finite())
-                .map(|v| v.max(Vec3::ZERO))
-        };
+        let v = |a: Option<[f32; 3]>| a.map(Vec3::from).filter(|v| v.is_finite()).map(|v| v.max(Vec3::ZERO));
         let kd = v(m.diffuse).unwrap_or(Vec3::splat(0.7)).min(Vec3::ONE);
         let ks = v(m.specular).unwrap_or(Vec3::ZERO).min(Vec3::ONE);
         let emission = v(m.emission).unwrap_or(Vec3::ZERO);
         let transparent = m.dissolve.is_some_and(|d| d < 1.0)
             || matches!(m.illumination_model, Some(4) | Some(6) | Some(7) | Some(9));
         let bsdf = if transparent {
-            let eta = m
-                .optical_density
-                .filter(|n| n.is_finite() && *n >= 1.0)
-                .unwrap_or(1.5);
-            Bsdf::Dielectric {
-                eta,
-                tint: Vec3::ONE,
-            }
-        } else if ks.max_element() > kd.max_element()
-            || m.illumination_model == Some(3) && ks != Vec3::ZERO
-        {
+            let eta = m.optical_density.filter(|n| n.is_finite() && *n >= 1.0).unwrap_or(1.5);
+            Bsdf::Dielectric { eta, tint: Vec3::ONE }
+        } else if ks.max_element() > kd.max_element() || m.illumination_model == Some(3) && ks != Vec3::ZERO {
             // Phong exponent to microfacet roughness: alpha = sqrt(2 / (Ns + 2)) (Walter et al.
             // 2007, sec. 5.2, the Beckmann-Phong correspondence, used for GGX too).
-            let ns = m
-                .shininess
-                .filter(|n| n.is_finite() && *n >= 0.0)
-                .unwrap_or(100.0);
-            Bsdf::Metal {
-                f0: ks,
-                alpha: (2.0 / (ns + 2.0)).sqrt(),
-            }
+            let ns = m.shininess.filter(|n| n.is_finite() && *n >= 0.0).unwrap_or(100.0);
+            Bsdf::Metal { f0: ks, alpha: (2.0 / (ns + 2.0)).sqrt() }
         } else {
             Bsdf::Lambert { albedo: kd }
         };
@@ -243,6 +205,9 @@ pub struct RenderScene<'a> {
     pub surfaces: Vec<SurfaceOptics>,
     pub lights: Lights,
     pub background: Vec3,
+    /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
+    /// a hit needs only these, so the renderer skips the core's barycentric recomputation.
+    triangles: Vec<(Vec3, u32)>,
 }
 
 impl<'a> RenderScene<'a> {
@@ -250,29 +215,12 @@ impl<'a> RenderScene<'a> {
     /// point lights from `[[lights]]`, background from `[render]`).
     pub fn new(world: &'a World) -> Self {
         let s = &world.scene;
-        let surfaces: Vec<SurfaceOptics> =
-            s.surfaces.iter().map(SurfaceOptics::from_surface).collect();
-        let points: Vec<(Vec3, Vec3)> = s
-            .desc
-            .lights
-            .iter()
-            .map(|l| (Vec3::from(l.position), Vec3::from(l.intensity)))
-            .collect();
-        let background = s
-            .desc
-            .render
-            .as_ref()
-            .and_then(|r| r.background)
-            .map_or(Vec3::ZERO, Vec3::from)
-            .max(Vec3::ZERO);
-        Self::from_parts(
-            &world.accel,
-            &s.mesh,
-            &s.spheres,
-            surfaces,
-            &points,
-            background,
-        )
+        let surfaces: Vec<SurfaceOptics> = s.surfaces.iter().map(SurfaceOptics::from_surface).collect();
+        let points: Vec<(Vec3, Vec3)> =
+            s.desc.lights.iter().map(|l| (Vec3::from(l.position), Vec3::from(l.intensity))).collect();
+        let background =
+            s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
+        Self::from_parts(&world.accel, &s.mesh, &s.spheres, surfaces, &points, background)
     }
 
     /// A render scene from its parts; `points` are (position, intensity) point lights.
@@ -286,22 +234,47 @@ impl<'a> RenderScene<'a> {
     ) -> Self {
         let emission: Vec<Vec3> = surfaces.iter().map(|s| s.emission).collect();
         let lights = Lights::new(points, mesh, spheres, &emission);
-        Self {
-            accel,
-            surfaces,
-            lights,
-            background,
+        let triangles = (0..mesh.triangle_count())
+            .map(|i| {
+                let [a, b, c] = mesh.corners(i);
+                ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
+            })
+            .collect();
+        Self { accel, surfaces, lights, background, triangles }
+    }
+
+    /// The closest hit along `ray` (barycentrics are not computed: zero).
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut best = self.accel.mesh.closest_triangle(ray).map(|(i, t)| {
+            let (normal, surface) = self.triangles[i as usize];
+            Hit {
+                t,
+                point: ray.at(t),
+                normal,
+                barycentric: Vec2::ZERO,
+                primitive: i,
+                kind: PrimitiveKind::Triangle,
+                surface,
+                front_face: normal.dot(ray.dir) < 0.0,
+            }
+        });
+        if !self.accel.spheres.is_empty() {
+            let mut r = *ray;
+            if let Some(h) = &best {
+                r.t_max = h.t;
+            }
+            if let Some(h) = self.accel.spheres.closest_hit(&r) {
+                best = Some(h);
+            }
         }
+        best
     }
 
     /// Radiance emitted by the surface at `hit` back along the ray.
     #[inline]
     pub fn emitted(&self, hit: &Hit) -> Vec3 {
-        if hit.front_face {
-            self.surfaces[hit.surface as usize].emission
-        } else {
-            Vec3::ZERO
-        }
+        if hit.front_face { self.surfaces[hit.surface as usize].emission } else { Vec3::ZERO }
     }
 
     /// The light that the primitive at `hit` is, if any.
@@ -316,16 +289,14 @@ impl<'a> RenderScene<'a> {
     /// Density per solid angle with which next-event estimation from `p` would have chosen the
     /// emitter point at `hit` reached along unit `dir` (light choice included).
     pub fn light_pdf(&self, p: Vec3, dir: Vec3, hit: &Hit) -> f32 {
-        self.light_of(hit).map_or(0.0, |l| {
-            self.lights.pmf(l) * self.lights.lights[l].pdf(p, dir, hit.point, hit.normal)
-        })
+        self.light_of(hit)
+            .map_or(0.0, |l| self.lights.pmf(l) * self.lights.lights[l].pdf(p, dir, hit.point, hit.normal))
     }
 
     /// True when the segment from `hit` to `target` is blocked.
     #[inline]
     pub fn occluded(&self, hit: &Hit, target: Vec3) -> bool {
-        self.accel
-            .occluded(&Ray::spawn_to(hit.point, hit.normal, target))
+        self.accel.occluded(&Ray::spawn_to(hit.point, hit.normal, target))
     }
 }
 
@@ -426,26 +397,11 @@ fn render_pixel(
     let (w, h) = (s.width as f32, s.height as f32);
     let mut sum = Vec3::ZERO;
     for k in 0..s.spp as usize {
-        let u = if jitter {
-            u2(&mut rng)
-        } else {
-            Vec2::splat(0.5)
-        };
+        let u = if jitter { u2(&mut rng) } else { Vec2::splat(0.5) };
         let o = stratified_2d(k, nx, ny, u);
         let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
-        let lens = if camera.aperture_radius_m > 0.0 {
-            u2(&mut rng)
-        } else {
-            Vec2::ZERO
-        };
-        let l = radiance(
-            scene,
-            s.integrator,
-            camera.ray(film, lens),
-            s.max_depth,
-            &mut rng,
-            rays,
-        );
+        let lens = if camera.aperture_radius_m > 0.0 { u2(&mut rng) } else { Vec2::ZERO };
+        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, &mut rng, rays);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;
@@ -471,6 +427,7 @@ pub fn render(
                 surfaces: scene.surfaces.clone(),
                 lights: scene.lights.clone(),
                 background,
+                triangles: scene.triangles.clone(),
             };
             &scene_bg
         }

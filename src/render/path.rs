@@ -59,23 +59,13 @@ pub fn sample_direct(
         return f * ls.li / pmf;
     }
     let light_pdf = ls.pdf * pmf;
-    let w = if mis {
-        power_heuristic(light_pdf, bsdf.pdf(wo, wi))
-    } else {
-        1.0
-    };
+    let w = if mis { power_heuristic(light_pdf, bsdf.pdf(wo, wi)) } else { 1.0 };
     f * ls.li * (w / light_pdf)
 }
 
 /// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
 /// (1 = direct lighting only).
-pub fn li(
-    scene: &RenderScene,
-    ray: Ray,
-    max_depth: u32,
-    rng: &mut rng::Rng64,
-    rays: &mut u64,
-) -> Vec3 {
+pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, rng: &mut rng::Rng64, rays: &mut u64) -> Vec3 {
     trace(scene, ray, max_depth, rng, rays, PathMode::Full)
 }
 
@@ -97,7 +87,7 @@ pub fn trace(
     let mut depth = 0u32;
     loop {
         *rays += 1;
-        let Some(hit) = scene.accel.closest_hit(&ray) else {
+        let Some(hit) = scene.intersect(&ray) else {
             l += beta * scene.background;
             break;
         };
@@ -119,8 +109,11 @@ pub fn trace(
         let wo = frame.to_local(-ray.dir);
         let delta = bsdf.is_delta();
         if !delta {
-            l += beta * sample_direct(scene, &hit, &frame, wo, &bsdf, rng, rays, true);
-            if mode == PathMode::StopAtDiffuse && matches!(bsdf, super::Bsdf::Lambert { .. }) {
+            // A diffuse vertex of the distributed tracer is not continued, so its light sample
+            // must carry the full estimate (no MIS).
+            let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, super::Bsdf::Lambert { .. });
+            l += beta * sample_direct(scene, &hit, &frame, wo, &bsdf, rng, rays, !stop);
+            if stop {
                 break;
             }
         }

@@ -15,7 +15,7 @@ use crate::core::Ray;
 /// Local shading at the first hit of `ray`.
 pub fn li(scene: &RenderScene, ray: &Ray, rays: &mut u64) -> Vec3 {
     *rays += 1;
-    let Some(hit) = scene.accel.closest_hit(ray) else {
+    let Some(hit) = scene.intersect(ray) else {
         return scene.background;
     };
     let optics = &scene.surfaces[hit.surface as usize];

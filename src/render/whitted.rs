@@ -53,7 +53,7 @@ pub fn direct_from_points(
 /// Radiance along `ray` at recursion depth `depth`.
 pub fn li(scene: &RenderScene, ray: &Ray, depth: u32, max_depth: u32, rays: &mut u64) -> Vec3 {
     *rays += 1;
-    let Some(hit) = scene.accel.closest_hit(ray) else {
+    let Some(hit) = scene.intersect(ray) else {
         return scene.background;
     };
     let optics = &scene.surfaces[hit.surface as usize];

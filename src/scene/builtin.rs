@@ -16,10 +16,7 @@ pub struct BuiltinScene {
 
 macro_rules! room_file {
     ($dir:literal, $file:literal) => {
-        (
-            $file,
-            include_str!(concat!("../../rooms/", $dir, "/", $file)),
-        )
+        ($file, include_str!(concat!("../../rooms/", $dir, "/", $file)))
     };
 }
 
@@ -116,10 +113,7 @@ mod tests {
             )
             .unwrap_or_else(|e| panic!("{}: {e}", s.name));
             assert!(scene.mesh.triangle_count() > 0);
-            assert_eq!(
-                scene.path,
-                Path::new(&format!("{BUILTIN_PREFIX}{}", s.name))
-            );
+            assert_eq!(scene.path, Path::new(&format!("{BUILTIN_PREFIX}{}", s.name)));
         }
         assert!(materialize("nope").is_err());
     }

@@ -155,10 +155,7 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
         let vol = a.dot(b.cross(c_)) / 6.0;
         report.total_area_m2 += area;
         report.divergence_volume_m3 += vol;
-        if let Some(s) = report
-            .area_by_surface_m2
-            .get_mut(mesh.surface_of_triangle[t] as usize)
-        {
+        if let Some(s) = report.area_by_surface_m2.get_mut(mesh.surface_of_triangle[t] as usize) {
             *s += area;
         }
         let lo_hi = mesh.corners(t);
@@ -191,11 +188,8 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
             .then(b.triangles.cmp(&a.triangles))
             .then(ra.cmp(rb))
     });
-    let index_of_root: HashMap<u32, u32> = keyed
-        .iter()
-        .enumerate()
-        .map(|(i, (r, _))| (*r, i as u32))
-        .collect();
+    let index_of_root: HashMap<u32, u32> =
+        keyed.iter().enumerate().map(|(i, (r, _))| (*r, i as u32)).collect();
     for r in &mut root_of {
         *r = index_of_root[r];
     }
@@ -207,8 +201,7 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
     if let Some(shell) = shell.map(|i| &components[i]) {
         let inside = |c: &ComponentReport| {
             let pad = 1e-4 * (1.0 + shell.bounds.1.abs().max(shell.bounds.0.abs()).max_element());
-            c.bounds.0.cmpge(shell.bounds.0 - pad).all()
-                && c.bounds.1.cmple(shell.bounds.1 + pad).all()
+            c.bounds.0.cmpge(shell.bounds.0 - pad).all() && c.bounds.1.cmple(shell.bounds.1 + pad).all()
         };
         if components.iter().all(inside) {
             let obstacles: f64 = components

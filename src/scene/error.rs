@@ -15,10 +15,7 @@ pub enum SceneError {
 
 impl SceneError {
     pub fn invalid(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        SceneError::Invalid {
-            path: path.into(),
-            message: message.into(),
-        }
+        SceneError::Invalid { path: path.into(), message: message.into() }
     }
 
     /// Wraps an I/O error on `path`, turning "not found" into its own case.
@@ -27,10 +24,7 @@ impl SceneError {
         if err.kind() == std::io::ErrorKind::NotFound {
             SceneError::NotFound { path }
         } else {
-            SceneError::Unreadable {
-                path,
-                reason: err.to_string(),
-            }
+            SceneError::Unreadable { path, reason: err.to_string() }
         }
     }
 
@@ -43,9 +37,6 @@ impl SceneError {
             let col = before.len() - before.rfind('\n').map_or(0, |i| i + 1) + 1;
             format!("line {line}, column {col}: ")
         });
-        SceneError::invalid(
-            path,
-            format!("{}{}", location.unwrap_or_default(), message.trim()),
-        )
+        SceneError::invalid(path, format!("{}{}", location.unwrap_or_default(), message.trim()))
     }
 }

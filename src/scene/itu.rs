@@ -32,15 +32,7 @@ impl ItuMaterial {
 }
 
 const fn row(name: &'static str, f: (f64, f64), a: f64, b: f64, c: f64, d: f64) -> ItuMaterial {
-    ItuMaterial {
-        name,
-        freq_min_ghz: f.0,
-        freq_max_ghz: f.1,
-        a,
-        b,
-        c,
-        d,
-    }
+    ItuMaterial { name, freq_min_ghz: f.0, freq_max_ghz: f.1, a, b, c, d }
 }
 
 /// Every row of ITU-R P.2040-3 Table 3 (glass and ceiling board have two frequency ranges).
@@ -104,13 +96,7 @@ mod tests {
         assert!((at("brick", 3.5) - 0.02908).abs() < 5e-5);
         assert!((at("glass", 3.5) - 0.01928).abs() < 5e-5);
         assert!((at("concrete", 2.4) - 0.09163).abs() < 5e-5);
-        assert_eq!(
-            itu_lookup("concrete", 3.5)
-                .unwrap()
-                .0
-                .relative_permittivity(3.5),
-            5.24
-        );
+        assert_eq!(itu_lookup("concrete", 3.5).unwrap().0.relative_permittivity(3.5), 5.24);
     }
 
     #[test]

@@ -47,8 +47,7 @@ pub struct LoadOptions {
 }
 
 fn is_toml(path: &Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"))
 }
 
 fn check_point(path: &Path, what: &str, p: [f32; 3]) -> Result<Vec3, SceneError> {
@@ -56,10 +55,7 @@ fn check_point(path: &Path, what: &str, p: [f32; 3]) -> Result<Vec3, SceneError>
     if v.is_finite() {
         Ok(v)
     } else {
-        Err(SceneError::invalid(
-            path,
-            format!("{what} has a non-finite position {v}"),
-        ))
+        Err(SceneError::invalid(path, format!("{what} has a non-finite position {v}")))
     }
 }
 
@@ -74,14 +70,11 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         return Ok(scene);
     }
     if !path.exists() {
-        return Err(SceneError::NotFound {
-            path: path.to_path_buf(),
-        });
+        return Err(SceneError::NotFound { path: path.to_path_buf() });
     }
     let (desc, obj_path) = if is_toml(path) {
         let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?;
-        let desc: SceneDesc =
-            toml::from_str(&text).map_err(|e| SceneError::toml(path, &text, &e))?;
+        let desc: SceneDesc = toml::from_str(&text).map_err(|e| SceneError::toml(path, &text, &e))?;
         let obj = desc.obj.clone().ok_or_else(|| {
             SceneError::invalid(path, "the scene names no geometry: add obj = \"FILE.obj\"")
         })?;
@@ -112,10 +105,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     }
     let mut mesh = obj.mesh;
     if mesh.triangle_count() == 0 {
-        return Err(SceneError::invalid(
-            &obj_path,
-            "the scene is empty: no usable triangles",
-        ));
+        return Err(SceneError::invalid(&obj_path, "the scene is empty: no usable triangles"));
     }
 
     // Resolve every surface name.
@@ -145,21 +135,12 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         if material.is_none() && mtl.is_none() {
             unknown.push(name.clone());
         }
-        surfaces.push(Surface {
-            name: name.clone(),
-            material,
-            mtl,
-        });
+        surfaces.push(Surface { name: name.clone(), material, mtl });
     }
     if !unknown.is_empty() {
         let detail: Vec<String> = unknown
             .iter()
-            .map(|n| {
-                format!(
-                    "\"{n}\" (nearest known: {})",
-                    library.nearest_names(n, 3).join(", ")
-                )
-            })
+            .map(|n| format!("\"{n}\" (nearest known: {})", library.nearest_names(n, 3).join(", ")))
             .collect();
         return Err(SceneError::invalid(
             &obj_path,
@@ -184,11 +165,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
             let near = library.nearest_names(&s.material, 3).join(", ");
             SceneError::invalid(
                 path,
-                format!(
-                    "sphere {} uses unknown material \"{}\" (nearest known: {near})",
-                    i + 1,
-                    s.material
-                ),
+                format!("sphere {} uses unknown material \"{}\" (nearest known: {near})", i + 1, s.material),
             )
         })?;
         let id = mesh.surface_id(&format!("sphere:{}", s.material));
@@ -221,14 +198,5 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         }
     }
 
-    Ok(Scene {
-        path: path.to_path_buf(),
-        obj_path,
-        mesh,
-        surfaces,
-        spheres,
-        desc,
-        library,
-        warnings,
-    })
+    Ok(Scene { path: path.to_path_buf(), obj_path, mesh, surfaces, spheres, desc, library, warnings })
 }

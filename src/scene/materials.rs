@@ -36,10 +36,7 @@ pub struct AcousticProps {
 #[derive(Clone, Debug, PartialEq)]
 pub enum RadioProps {
     Itu(String),
-    Explicit {
-        relative_permittivity: f64,
-        conductivity_s_per_m: f64,
-    },
+    Explicit { relative_permittivity: f64, conductivity_s_per_m: f64 },
 }
 
 /// How light interacts with a surface.
@@ -134,10 +131,7 @@ pub struct MaterialsFile {
 fn band_range(n: usize, bands_hz: Option<&[f32]>) -> Result<std::ops::Range<usize>, String> {
     if let Some(centres) = bands_hz {
         if centres.len() != n {
-            return Err(format!(
-                "bands_hz has {} entries but the values have {n}",
-                centres.len()
-            ));
+            return Err(format!("bands_hz has {} entries but the values have {n}", centres.len()));
         }
         let first = centres.first().ok_or("bands_hz is empty")?;
         let start = OCTAVE_BANDS_HZ
@@ -145,13 +139,8 @@ fn band_range(n: usize, bands_hz: Option<&[f32]>) -> Result<std::ops::Range<usiz
             .position(|&f| (f - first).abs() < 1.0)
             .ok_or_else(|| format!("{first} Hz is not an octave centre of {OCTAVE_BANDS_HZ:?}"))?;
         for (k, &f) in centres.iter().enumerate() {
-            if OCTAVE_BANDS_HZ
-                .get(start + k)
-                .is_none_or(|&c| (c - f).abs() >= 1.0)
-            {
-                return Err(format!(
-                    "bands_hz must be consecutive octave centres from {OCTAVE_BANDS_HZ:?}"
-                ));
+            if OCTAVE_BANDS_HZ.get(start + k).is_none_or(|&c| (c - f).abs() >= 1.0) {
+                return Err(format!("bands_hz must be consecutive octave centres from {OCTAVE_BANDS_HZ:?}"));
             }
         }
         return Ok(start..start + n);
@@ -214,23 +203,12 @@ impl MaterialSpec {
                     Some(s) => coefficient_bands("scattering", s, Some(&range), bands_hz)?.0,
                     None => [DEFAULT_SCATTERING; BAND_COUNT],
                 };
-                Some(AcousticProps {
-                    absorption,
-                    scattering,
-                    bands_given: range,
-                })
+                Some(AcousticProps { absorption, scattering, bands_given: range })
             }
         };
-        let radio = match (
-            &self.itu,
-            self.relative_permittivity,
-            self.conductivity_s_per_m,
-        ) {
+        let radio = match (&self.itu, self.relative_permittivity, self.conductivity_s_per_m) {
             (Some(_), Some(_), _) | (Some(_), _, Some(_)) => {
-                return Err(
-                    "give either itu or relative_permittivity/conductivity_s_per_m, not both"
-                        .into(),
-                );
+                return Err("give either itu or relative_permittivity/conductivity_s_per_m, not both".into());
             }
             (Some(n), None, None) => {
                 let names = itu::itu_names();
@@ -245,14 +223,9 @@ impl MaterialSpec {
             (None, Some(eps), sigma) => {
                 let sigma = sigma.unwrap_or(0.0);
                 if !(eps.is_finite() && eps >= 1.0 && sigma.is_finite() && sigma >= 0.0) {
-                    return Err(
-                        "relative_permittivity must be >= 1 and conductivity_s_per_m >= 0".into(),
-                    );
+                    return Err("relative_permittivity must be >= 1 and conductivity_s_per_m >= 0".into());
                 }
-                Some(RadioProps::Explicit {
-                    relative_permittivity: eps,
-                    conductivity_s_per_m: sigma,
-                })
+                Some(RadioProps::Explicit { relative_permittivity: eps, conductivity_s_per_m: sigma })
             }
             (None, None, Some(_)) => {
                 return Err("conductivity_s_per_m needs relative_permittivity".into());
@@ -282,13 +255,7 @@ impl MaterialSpec {
             if !(ior.is_finite() && ior >= 1.0) {
                 return Err("ior must be >= 1".into());
             }
-            Some(OpticalProps {
-                kind: self.kind.unwrap_or_default(),
-                color,
-                roughness,
-                ior,
-                emission,
-            })
+            Some(OpticalProps { kind: self.kind.unwrap_or_default(), color, roughness, ior, emission })
         } else {
             None
         };
@@ -323,8 +290,7 @@ impl MaterialLibrary {
 
     /// Adds every entry of a materials TOML text; `path` is used in error messages.
     pub fn add_toml(&mut self, path: &Path, text: &str) -> Result<(), SceneError> {
-        let file: MaterialsFile =
-            toml::from_str(text).map_err(|e| SceneError::toml(path, text, &e))?;
+        let file: MaterialsFile = toml::from_str(text).map_err(|e| SceneError::toml(path, text, &e))?;
         self.add_specs(path, &file.materials)
     }
 
@@ -356,11 +322,8 @@ impl MaterialLibrary {
     /// Up to `k` known names closest to `name` (case-insensitive Jaro-Winkler).
     pub fn nearest_names(&self, name: &str, k: usize) -> Vec<String> {
         let lower = name.to_lowercase();
-        let mut scored: Vec<(f64, &String)> = self
-            .materials
-            .keys()
-            .map(|n| (strsim::jaro_winkler(&lower, &n.to_lowercase()), n))
-            .collect();
+        let mut scored: Vec<(f64, &String)> =
+            self.materials.keys().map(|n| (strsim::jaro_winkler(&lower, &n.to_lowercase()), n)).collect();
         scored.sort_by(|a, b| b.0.total_cmp(&a.0).then_with(|| a.1.cmp(b.1)));
         scored.into_iter().take(k).map(|(_, n)| n.clone()).collect()
     }
@@ -384,10 +347,7 @@ mod tests {
         )
         .unwrap();
         let a = m.acoustic.unwrap();
-        assert_eq!(
-            a.absorption,
-            [0.02, 0.02, 0.03, 0.03, 0.03, 0.04, 0.07, 0.07]
-        );
+        assert_eq!(a.absorption, [0.02, 0.02, 0.03, 0.03, 0.03, 0.04, 0.07, 0.07]);
         assert_eq!(a.bands_given, 1..7);
         assert_eq!(m.radio, Some(RadioProps::Itu("concrete".into())));
         assert_eq!(m.optical, None);
@@ -395,10 +355,8 @@ mod tests {
 
     #[test]
     fn explicit_bands_and_scalar_scattering() {
-        let m = spec(
-            "[materials.x]\nabsorption = [0.5, 0.6]\nbands_hz = [1000, 2000]\nscattering = 0.3\n",
-        )
-        .unwrap();
+        let m = spec("[materials.x]\nabsorption = [0.5, 0.6]\nbands_hz = [1000, 2000]\nscattering = 0.3\n")
+            .unwrap();
         let a = m.acoustic.unwrap();
         assert_eq!(a.absorption, [0.5, 0.5, 0.5, 0.5, 0.5, 0.6, 0.6, 0.6]);
         assert_eq!(a.scattering, [0.3; 8]);
@@ -408,55 +366,26 @@ mod tests {
 
     #[test]
     fn rejects_bad_values() {
+        assert!(spec("[materials.x]\nabsorption = [0.1, 0.2, 0.3]\n").unwrap_err().contains("expected 6"));
+        assert!(spec("[materials.x]\nabsorption = 1.5\n").unwrap_err().contains("outside [0, 1]"));
+        assert!(spec("[materials.x]\nitu = \"cheese\"\n").unwrap_err().contains("unknown ITU"));
         assert!(
-            spec("[materials.x]\nabsorption = [0.1, 0.2, 0.3]\n")
-                .unwrap_err()
-                .contains("expected 6")
-        );
-        assert!(
-            spec("[materials.x]\nabsorption = 1.5\n")
-                .unwrap_err()
-                .contains("outside [0, 1]")
-        );
-        assert!(
-            spec("[materials.x]\nitu = \"cheese\"\n")
-                .unwrap_err()
-                .contains("unknown ITU")
-        );
-        assert!(
-            spec(
-                "[materials.x]\nabsorption = [0.1,0.1,0.1,0.1,0.1,0.1]\nscattering = [0.1, 0.1]\n"
-            )
-            .is_err()
+            spec("[materials.x]\nabsorption = [0.1,0.1,0.1,0.1,0.1,0.1]\nscattering = [0.1, 0.1]\n").is_err()
         );
         assert!(spec("[materials.x]\ncolor = [2, 0, 0]\n").is_err());
-        assert!(
-            spec("[materials.x]\nbogus = 1\n")
-                .unwrap_err()
-                .contains("unknown field")
-        );
+        assert!(spec("[materials.x]\nbogus = 1\n").unwrap_err().contains("unknown field"));
     }
 
     #[test]
     fn builtin_library_is_valid_and_large_enough() {
         let lib = MaterialLibrary::builtin();
-        let acoustic: Vec<&Material> = lib
-            .materials
-            .values()
-            .filter(|m| m.acoustic.is_some())
-            .collect();
-        assert!(
-            acoustic.len() >= 30,
-            "only {} acoustic materials",
-            acoustic.len()
-        );
+        let acoustic: Vec<&Material> = lib.materials.values().filter(|m| m.acoustic.is_some()).collect();
+        assert!(acoustic.len() >= 30, "only {} acoustic materials", acoustic.len());
         for m in &acoustic {
             assert!(!m.source.trim().is_empty(), "{} has no provenance", m.name);
         }
         for name in itu::itu_names() {
-            let m = lib
-                .get(name)
-                .unwrap_or_else(|| panic!("built-in library lacks ITU material {name}"));
+            let m = lib.get(name).unwrap_or_else(|| panic!("built-in library lacks ITU material {name}"));
             assert_eq!(m.radio, Some(RadioProps::Itu(name.to_string())));
         }
     }
@@ -464,9 +393,6 @@ mod tests {
     #[test]
     fn nearest_names_suggest_close_spellings() {
         let lib = MaterialLibrary::builtin();
-        assert_eq!(
-            lib.nearest_names("concret", 1),
-            vec!["concrete".to_string()]
-        );
+        assert_eq!(lib.nearest_names("concret", 1), vec!["concrete".to_string()]);
     }
 }

@@ -64,25 +64,21 @@ fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) ->
     use tobj::LoadError as E;
     let located = match err {
         E::PositionParseError => find_line(text, |l| {
-            l.strip_prefix("v ")
-                .or(l.strip_prefix("v\t"))
-                .is_some_and(|r| !parses_floats(r, 3))
+            l.strip_prefix("v ").or(l.strip_prefix("v\t")).is_some_and(|r| !parses_floats(r, 3))
         })
         .map(|n| format!("line {n}: vertex position is not three numbers")),
-        E::NormalParseError => find_line(text, |l| {
-            l.strip_prefix("vn ").is_some_and(|r| !parses_floats(r, 3))
-        })
-        .map(|n| format!("line {n}: normal is not three numbers")),
-        E::TexcoordParseError => find_line(text, |l| {
-            l.strip_prefix("vt ").is_some_and(|r| !parses_floats(r, 1))
-        })
-        .map(|n| format!("line {n}: texture coordinate is not a number")),
+        E::NormalParseError => {
+            find_line(text, |l| l.strip_prefix("vn ").is_some_and(|r| !parses_floats(r, 3)))
+                .map(|n| format!("line {n}: normal is not three numbers"))
+        }
+        E::TexcoordParseError => {
+            find_line(text, |l| l.strip_prefix("vt ").is_some_and(|r| !parses_floats(r, 1)))
+                .map(|n| format!("line {n}: texture coordinate is not a number"))
+        }
         E::FaceParseError | E::InvalidPolygon | E::FaceVertexOutOfBounds => find_line(text, |l| {
             l.strip_prefix("f ").is_some_and(|r| {
-                let idx: Vec<Option<i64>> = r
-                    .split_whitespace()
-                    .map(|w| w.split('/').next().and_then(|s| s.parse().ok()))
-                    .collect();
+                let idx: Vec<Option<i64>> =
+                    r.split_whitespace().map(|w| w.split('/').next().and_then(|s| s.parse().ok())).collect();
                 idx.len() < 3
                     || idx.iter().any(|i| match i {
                         None => true,
@@ -90,9 +86,7 @@ fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) ->
                     })
             })
         })
-        .map(|n| {
-            format!("line {n}: face refers to a vertex that does not exist or is not a number")
-        }),
+        .map(|n| format!("line {n}: face refers to a vertex that does not exist or is not a number")),
         E::ColorParseError => find_line(text, |l| {
             l.strip_prefix("v ").is_some_and(|r| {
                 let n = r.split_whitespace().count();
@@ -100,10 +94,7 @@ fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) ->
             })
         })
         .map(|n| {
-            format!(
-                "line {n}: vertex has {} values (expected x y z, or x y z r g b)",
-                "a wrong number of"
-            )
+            format!("line {n}: vertex has {} values (expected x y z, or x y z r g b)", "a wrong number of")
         }),
         _ => None,
     };
@@ -112,8 +103,7 @@ fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) ->
 
 /// Loads an OBJ file (and its MTL libraries) into a mesh with one surface per `usemtl` name.
 pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
-    let text =
-        strip_comments(&std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?);
+    let text = strip_comments(&std::fs::read_to_string(path).map_err(|e| SceneError::io(path, &e))?);
     let usemtl_names: Vec<String> = {
         let mut v: Vec<String> = Vec::new();
         for l in text.lines() {
@@ -126,22 +116,15 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
         }
         v
     };
-    let vertex_count = text
-        .lines()
-        .filter(|l| l.trim_start().starts_with("v "))
-        .count();
+    let vertex_count = text.lines().filter(|l| l.trim_start().starts_with("v ")).count();
 
     // Prepend a synthetic library so every usemtl name survives even without an MTL; real
     // libraries loaded later override these placeholders.
     let augmented = format!("mtllib {NAMES_LIBRARY}\n{text}");
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let missing_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
-    let options = tobj::LoadOptions {
-        triangulate: true,
-        single_index: false,
-        ignore_points: true,
-        ignore_lines: true,
-    };
+    let options =
+        tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
     let loaded = tobj::load_obj_buf(&mut BufReader::new(augmented.as_bytes()), &options, |lib| {
         if lib.as_os_str() == NAMES_LIBRARY {
             let mut map = std::collections::HashMap::new();
@@ -150,10 +133,7 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
                 .enumerate()
                 .map(|(i, n)| {
                     map.insert(n.clone(), i);
-                    tobj::Material {
-                        name: n.clone(),
-                        ..Default::default()
-                    }
+                    tobj::Material { name: n.clone(), ..Default::default() }
                 })
                 .collect();
             return Ok((mats, map));
@@ -162,9 +142,7 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
         match std::fs::read_to_string(&full) {
             Ok(mtl) => tobj::load_mtl_buf(&mut BufReader::new(strip_comments(&mtl).as_bytes())),
             Err(e) => {
-                missing_mtl
-                    .borrow_mut()
-                    .get_or_insert((full, e.to_string()));
+                missing_mtl.borrow_mut().get_or_insert((full, e.to_string()));
                 Err(tobj::LoadError::OpenFileFailed)
             }
         }
@@ -172,16 +150,12 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
     if let Some((mtl, reason)) = missing_mtl.into_inner() {
         return Err(SceneError::invalid(
             path,
-            format!(
-                "material library {} cannot be opened ({reason})",
-                mtl.display()
-            ),
+            format!("material library {} cannot be opened ({reason})", mtl.display()),
         ));
     }
-    let (models, materials) = loaded
-        .map_err(|e| SceneError::invalid(path, describe_tobj_error(e, &text, vertex_count)))?;
-    let materials =
-        materials.map_err(|e| SceneError::invalid(path, format!("malformed MTL: {e}")))?;
+    let (models, materials) =
+        loaded.map_err(|e| SceneError::invalid(path, describe_tobj_error(e, &text, vertex_count)))?;
+    let materials = materials.map_err(|e| SceneError::invalid(path, format!("malformed MTL: {e}")))?;
 
     let mut out = ObjScene::default();
     for m in &materials {
@@ -227,11 +201,7 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
                 let line = nth_vertex_line(&text, k + base as usize);
                 return Err(SceneError::invalid(
                     path,
-                    format!(
-                        "{}vertex {} has a non-finite coordinate {v}",
-                        line,
-                        k + 1 + base as usize
-                    ),
+                    format!("{}vertex {} has a non-finite coordinate {v}", line, k + 1 + base as usize),
                 ));
             }
             mesh.positions.push(v);
@@ -259,17 +229,11 @@ fn nth_vertex_line(text: &str, index: usize) -> String {
         .enumerate()
         .filter(|(_, l)| l.trim_start().starts_with("v "))
         .find(|(_, l)| !parses_finite(l.trim_start()[2..].trim()))
-        .or_else(|| {
-            text.lines()
-                .enumerate()
-                .filter(|(_, l)| l.trim_start().starts_with("v "))
-                .nth(index)
-        })
+        .or_else(|| text.lines().enumerate().filter(|(_, l)| l.trim_start().starts_with("v ")).nth(index))
         .map(|(n, _)| format!("line {}: ", n + 1))
         .unwrap_or_default()
 }
 
 fn parses_finite(rest: &str) -> bool {
-    rest.split_whitespace()
-        .all(|v| v.parse::<f32>().is_ok_and(f32::is_finite))
+    rest.split_whitespace().all(|v| v.parse::<f32>().is_ok_and(f32::is_finite))
 }

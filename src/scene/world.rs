@@ -18,11 +18,7 @@ impl World {
     pub fn build(scene: Scene) -> Self {
         let accel = Accel::build(&scene.mesh, scene.spheres.clone(), BuildQuality::default());
         let report = analyze(&scene.mesh);
-        Self {
-            scene,
-            accel,
-            report,
-        }
+        Self { scene, accel, report }
     }
 
     /// Whether `p` lies in the room's air, by crossing parity against the closed, non-planar
