@@ -7,7 +7,7 @@
 
 use glam::Vec3;
 
-use super::{Frame, RenderScene, power_heuristic, u2};
+use super::{Bsdf, Frame, RenderScene, power_heuristic, u2};
 use crate::core::Ray;
 use crate::core::rng::{Rng64, uniform};
 use crate::core::{Hit, rng};
@@ -24,42 +24,41 @@ pub enum PathMode {
     StopAtDiffuse,
 }
 
-/// Direct lighting at `hit` from one light chosen by power: `f |cos| Li / pdf`, weighted
+/// A surface point being shaded: the hit, its frame, the outgoing direction (local) and BSDF.
+pub struct Vertex<'h> {
+    pub hit: &'h Hit,
+    pub frame: Frame,
+    pub wo: Vec3,
+    pub bsdf: Bsdf,
+}
+
+/// Direct lighting at a vertex from one light chosen by power: `f |cos| Li / pdf`, weighted
 /// against BSDF sampling by the power heuristic when `mis` (area lights only; point lights
 /// are Dirac and always take full weight).
 #[inline]
-pub fn sample_direct(
-    scene: &RenderScene,
-    hit: &Hit,
-    frame: &Frame,
-    wo: Vec3,
-    bsdf: &super::Bsdf,
-    rng: &mut Rng64,
-    rays: &mut u64,
-    mis: bool,
-) -> Vec3 {
+pub fn sample_direct(scene: &RenderScene, v: &Vertex, rng: &mut Rng64, rays: &mut u64, mis: bool) -> Vec3 {
     let ul = uniform(rng);
     let u = u2(rng);
     let Some((index, pmf)) = scene.lights.choose(ul) else {
         return Vec3::ZERO;
     };
-    let Some(ls) = scene.lights.lights[index].sample(hit.point, u) else {
+    let Some(ls) = scene.lights.lights[index].sample(v.hit.point, u) else {
         return Vec3::ZERO;
     };
-    let wi = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo, wi) * wi.z.abs();
+    let wi = v.frame.to_local(ls.wi);
+    let f = v.bsdf.eval(v.wo, wi) * wi.z.abs();
     if f == Vec3::ZERO || ls.li == Vec3::ZERO {
         return Vec3::ZERO;
     }
     *rays += 1;
-    if scene.occluded(hit, ls.point) {
+    if scene.occluded(v.hit, ls.point) {
         return Vec3::ZERO;
     }
     if ls.delta {
         return f * ls.li / pmf;
     }
     let light_pdf = ls.pdf * pmf;
-    let w = if mis { power_heuristic(light_pdf, bsdf.pdf(wo, wi)) } else { 1.0 };
+    let w = if mis { power_heuristic(light_pdf, v.bsdf.pdf(v.wo, wi)) } else { 1.0 };
     f * ls.li * (w / light_pdf)
 }
 
@@ -111,8 +110,9 @@ pub fn trace(
         if !delta {
             // A diffuse vertex of the distributed tracer is not continued, so its light sample
             // must carry the full estimate (no MIS).
-            let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, super::Bsdf::Lambert { .. });
-            l += beta * sample_direct(scene, &hit, &frame, wo, &bsdf, rng, rays, !stop);
+            let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, Bsdf::Lambert { .. });
+            let v = Vertex { hit: &hit, frame, wo, bsdf };
+            l += beta * sample_direct(scene, &v, rng, rays, !stop);
             if stop {
                 break;
             }
