@@ -8,11 +8,18 @@
 use glam::Vec3;
 
 use super::RenderScene;
-use super::path::{PathMode, trace};
+use super::path::{FirstVertexSamples, PathMode, trace};
 use crate::core::Ray;
 use crate::core::rng::Rng64;
 
 /// Radiance along camera ray `ray`, following at most `max_depth` specular/glossy bounces.
-pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, rng: &mut Rng64, rays: &mut u64) -> Vec3 {
-    trace(scene, ray, max_depth, rng, rays, PathMode::StopAtDiffuse)
+pub fn li(
+    scene: &RenderScene,
+    ray: Ray,
+    max_depth: u32,
+    first: Option<FirstVertexSamples>,
+    rng: &mut Rng64,
+    rays: &mut u64,
+) -> Vec3 {
+    trace(scene, ray, max_depth, first, rng, rays, PathMode::StopAtDiffuse)
 }

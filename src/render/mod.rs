@@ -29,6 +29,8 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use rand::RngCore;
+
 use crate::core::rng::{Rng64, stream, uniform};
 use crate::core::sampling::{orthonormal_basis, stratified_2d};
 use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
@@ -360,14 +362,15 @@ pub fn radiance(
     integrator: IntegratorKind,
     ray: Ray,
     max_depth: u32,
+    first: Option<path::FirstVertexSamples>,
     rng: &mut Rng64,
     rays: &mut u64,
 ) -> Vec3 {
     match integrator {
         IntegratorKind::Raycast => raycast::li(scene, &ray, rays),
         IntegratorKind::Whitted => whitted::li(scene, &ray, 0, max_depth, rays),
-        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, rng, rays),
-        IntegratorKind::Path => path::li(scene, ray, max_depth, rng, rays),
+        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, first, rng, rays),
+        IntegratorKind::Path => path::li(scene, ray, max_depth, first, rng, rays),
     }
 }
 
@@ -378,6 +381,14 @@ pub fn strata(spp: u32) -> (usize, usize) {
         nx -= 1;
     }
     (nx as usize, (spp / nx) as usize)
+}
+
+/// Greatest common divisor.
+fn gcd(mut a: usize, mut b: usize) -> usize {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
 }
 
 /// Renders pixel `(x, y)`: the box-filtered mean of `spp` stratified samples.
@@ -395,13 +406,33 @@ fn render_pixel(
     let (nx, ny) = strata(s.spp);
     let jitter = s.integrator.jitters();
     let (w, h) = (s.width as f32, s.height as f32);
+    let spp = s.spp as usize;
+    // Shuffled stratum orders for the first vertex's light and BSDF samples: k -> (m k + c)
+    // mod spp with m coprime to spp, drawn per pixel (a cheap stand-in for a random permutation).
+    let shuffle = |rng: &mut Rng64| {
+        let mut m = (rng.next_u64() % spp as u64) as usize | 1;
+        while gcd(m, spp) != 1 {
+            m += 1;
+        }
+        (m % spp.max(1), (rng.next_u64() % spp as u64) as usize)
+    };
+    let (light_order, bsdf_order) =
+        if jitter { (shuffle(&mut rng), shuffle(&mut rng)) } else { ((1, 0), (1, 0)) };
     let mut sum = Vec3::ZERO;
-    for k in 0..s.spp as usize {
+    for k in 0..spp {
         let u = if jitter { u2(&mut rng) } else { Vec2::splat(0.5) };
         let o = stratified_2d(k, nx, ny, u);
         let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
         let lens = if camera.aperture_radius_m > 0.0 { u2(&mut rng) } else { Vec2::ZERO };
-        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, &mut rng, rays);
+        let first = jitter.then(|| {
+            let kl = (light_order.0 * k + light_order.1) % spp;
+            let kb = (bsdf_order.0 * k + bsdf_order.1) % spp;
+            path::FirstVertexSamples {
+                light: stratified_2d(kl, nx, ny, u2(&mut rng)),
+                bsdf: stratified_2d(kb, nx, ny, u2(&mut rng)),
+            }
+        });
+        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, first, &mut rng, rays);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;

@@ -5,7 +5,7 @@
 //! The same loop serves the distributed ray tracer ([`super::distributed`]), which stops at the
 //! first diffuse vertex after its direct lighting.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::{Bsdf, Frame, RenderScene, power_heuristic, u2};
 use crate::core::Ray;
@@ -36,9 +36,15 @@ pub struct Vertex<'h> {
 /// against BSDF sampling by the power heuristic when `mis` (area lights only; point lights
 /// are Dirac and always take full weight).
 #[inline]
-pub fn sample_direct(scene: &RenderScene, v: &Vertex, rng: &mut Rng64, rays: &mut u64, mis: bool) -> Vec3 {
+pub fn sample_direct(
+    scene: &RenderScene,
+    v: &Vertex,
+    u: Vec2,
+    rng: &mut Rng64,
+    rays: &mut u64,
+    mis: bool,
+) -> Vec3 {
     let ul = uniform(rng);
-    let u = u2(rng);
     let Some((index, pmf)) = scene.lights.choose(ul) else {
         return Vec3::ZERO;
     };
@@ -62,10 +68,26 @@ pub fn sample_direct(scene: &RenderScene, v: &Vertex, rng: &mut Rng64, rays: &mu
     f * ls.li * (w / light_pdf)
 }
 
+/// Stratified sample pairs for the first surface vertex of a path: the point on the light
+/// and the BSDF direction (padded stratification, pbrt-v4 sec. 8.5: each dimension pair is
+/// stratified on its own, with a shuffled stratum order so the pairs are not correlated).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstVertexSamples {
+    pub light: Vec2,
+    pub bsdf: Vec2,
+}
+
 /// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
 /// (1 = direct lighting only).
-pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, rng: &mut rng::Rng64, rays: &mut u64) -> Vec3 {
-    trace(scene, ray, max_depth, rng, rays, PathMode::Full)
+pub fn li(
+    scene: &RenderScene,
+    ray: Ray,
+    max_depth: u32,
+    first: Option<FirstVertexSamples>,
+    rng: &mut rng::Rng64,
+    rays: &mut u64,
+) -> Vec3 {
+    trace(scene, ray, max_depth, first, rng, rays, PathMode::Full)
 }
 
 /// The shared path loop.
@@ -73,6 +95,7 @@ pub fn trace(
     scene: &RenderScene,
     mut ray: Ray,
     max_depth: u32,
+    mut first: Option<FirstVertexSamples>,
     rng: &mut Rng64,
     rays: &mut u64,
     mode: PathMode,
@@ -107,19 +130,22 @@ pub fn trace(
         let frame = Frame::new(hit.normal);
         let wo = frame.to_local(-ray.dir);
         let delta = bsdf.is_delta();
+        let (u_light, u_bsdf) = match first.take() {
+            Some(f) => (f.light, f.bsdf),
+            None => (u2(rng), u2(rng)),
+        };
         if !delta {
             // A diffuse vertex of the distributed tracer is not continued, so its light sample
             // must carry the full estimate (no MIS).
             let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, Bsdf::Lambert { .. });
             let v = Vertex { hit: &hit, frame, wo, bsdf };
-            l += beta * sample_direct(scene, &v, rng, rays, !stop);
+            l += beta * sample_direct(scene, &v, u_light, rng, rays, !stop);
             if stop {
                 break;
             }
         }
-        let u = u2(rng);
         let uc = uniform(rng);
-        let Some(s) = bsdf.sample(wo, u, uc) else {
+        let Some(s) = bsdf.sample(wo, u_bsdf, uc) else {
             break;
         };
         beta *= s.weight();
