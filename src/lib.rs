@@ -6,4 +6,5 @@ pub mod acoustic;
 pub mod cli;
 pub mod core;
 pub mod io;
+pub mod render;
 pub mod scene;

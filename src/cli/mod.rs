@@ -2,9 +2,11 @@
 //! own file; all report errors as one line naming the file and the problem.
 
 pub mod acoustic;
+pub mod bench_render;
 pub mod bench_trace;
 pub mod info;
 pub mod progress;
+pub mod render;
 
 use std::path::PathBuf;
 
@@ -29,6 +31,8 @@ pub enum Command {
     /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
     /// for every source-receiver pair, plus Sabine and Eyring estimates.
     Acoustic(acoustic::AcousticArgs),
+    /// Render an image (PNG or EXR) of a scene with a chosen integrator.
+    Render(render::RenderArgs),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -39,6 +43,9 @@ pub enum BenchCommand {
     /// Trace a ray file (or generated rays) against a mesh: build time, closest-hit and
     /// occlusion Mrays/s, and a checksum of the hit triangle indices.
     Trace(bench_trace::TraceArgs),
+    /// Render the classic Cornell box (256x256, depth 8) several times: samples/s, Mrays/s
+    /// and wall time (median).
+    Render(bench_render::BenchRenderArgs),
 }
 
 /// Runs the command line; the error, if any, is for `main` to print on one line.
@@ -50,7 +57,9 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Info(args) => info::run(&args),
         Command::Acoustic(args) => acoustic::run(&args),
+        Command::Render(args) => render::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
+        Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
     }
 }
 

@@ -43,6 +43,16 @@ pub const BUILTIN_SCENES: &[BuiltinScene] = &[
         ],
     },
     BuiltinScene {
+        name: "cornell_box_classic",
+        description: "the classic open-front Cornell box with its camera: the render reference and benchmark",
+        main: "scene.toml",
+        files: &[
+            room_file!("cornell_box_classic", "scene.toml"),
+            room_file!("cornell_box_classic", "cornell_box_classic.obj"),
+            room_file!("cornell_box_classic", "cornell_box_classic.mtl"),
+        ],
+    },
+    BuiltinScene {
         name: "bras_cr2",
         description: "BRAS CR2 seminar room (CC BY-SA 4.0), 2 sources, 5 receivers",
         main: "scene.toml",

@@ -1,0 +1,162 @@
+//! `propsim render`: an image of a scene (PNG or EXR) with a chosen integrator.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, anyhow};
+use clap::Args;
+use glam::Vec3;
+
+use crate::render::film::ImageFormat;
+use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render};
+use crate::scene::{self, LoadOptions, World};
+
+/// The scene `propsim render` uses when given none.
+pub const DEFAULT_RENDER_SCENE: &str = "builtin:cornell_box_classic";
+/// Image size when neither the scene nor the command line gives one.
+pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
+/// Vertical field of view of the automatic camera, degrees.
+pub const AUTO_FOV_DEG: f32 = 40.0;
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Scene file (.toml), bare OBJ (with its MTL), or builtin:NAME.
+    #[arg(default_value = DEFAULT_RENDER_SCENE)]
+    pub scene: PathBuf,
+    /// Output image; the extension picks the format: .png (8-bit sRGB) or .exr (linear float).
+    #[arg(short = 'o', long = "output", default_value = "out/render.png")]
+    pub output: PathBuf,
+    /// Image width in pixels (default: the scene's, else 640).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene's, else 480).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel (default: the scene's, else 64).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Maximum bounces; 1 = direct light only (default: the scene's, else 8).
+    #[arg(long = "max-depth")]
+    pub max_depth: Option<u32>,
+    /// raycast, whitted, distributed or path (default: the scene's, else path).
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Random seed: the same seed gives the same image for any thread count.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Camera position X,Y,Z (default: the scene's camera, else an automatic view).
+    #[arg(long)]
+    pub eye: Option<String>,
+    /// Point looked at, X,Y,Z.
+    #[arg(long)]
+    pub target: Option<String>,
+    /// Up direction, X,Y,Z (default 0,0,1).
+    #[arg(long)]
+    pub up: Option<String>,
+    /// Vertical field of view, degrees.
+    #[arg(long = "fov-deg")]
+    pub fov_deg: Option<f32>,
+    /// Extra materials file(s).
+    #[arg(long = "materials")]
+    pub materials: Vec<PathBuf>,
+}
+
+fn point(flag: &str, s: &Option<String>) -> anyhow::Result<Option<Vec3>> {
+    s.as_deref()
+        .map(|s| super::parse_point(s).map(Vec3::from).map_err(|e| anyhow!("--{flag} {e}")))
+        .transpose()
+}
+
+/// The settings the scene suggests, overridden by the flags.
+pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettings> {
+    let desc = world.scene.desc.render.clone().unwrap_or_default();
+    let integrator_name = args.integrator.clone().or(desc.integrator).unwrap_or_else(|| "path".into());
+    let integrator: IntegratorKind =
+        integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
+    let d = RenderSettings::default();
+    let s = RenderSettings {
+        width: args.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
+        height: args.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
+        spp: args.spp.or(desc.spp).unwrap_or(d.spp),
+        max_depth: args.max_depth.or(desc.max_depth).unwrap_or(d.max_depth),
+        integrator,
+        seed: args.seed,
+        background: None,
+    };
+    s.validate().map_err(|e| anyhow!("{e}"))?;
+    Ok(s)
+}
+
+/// The camera: the scene's `[camera]` or an automatic view of the bounds, then the flags.
+pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<Camera> {
+    let (eye, target, up, fov, lens) = match &world.scene.desc.camera {
+        Some(c) => (
+            Vec3::from(c.eye),
+            Vec3::from(c.target),
+            Vec3::from(c.up),
+            c.fov_deg,
+            (c.aperture_radius_m, c.focus_distance_m),
+        ),
+        None => {
+            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+            let up = point("up", &args.up)?.unwrap_or(Vec3::Z);
+            let fov = args.fov_deg.unwrap_or(AUTO_FOV_DEG);
+            let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 { fov } else { AUTO_FOV_DEG };
+            let (eye, target) = Camera::auto_view(lo, hi, up, fov_ok);
+            (eye, target, up, fov, (0.0, None))
+        }
+    };
+    let eye = point("eye", &args.eye)?.unwrap_or(eye);
+    let target = point("target", &args.target)?.unwrap_or(target);
+    let up = point("up", &args.up)?.unwrap_or(up);
+    let fov = args.fov_deg.unwrap_or(fov);
+    let mut cam = Camera::look_at(eye, target, up, fov, aspect).map_err(|e| anyhow!("{e}"))?;
+    cam.set_lens(lens.0, lens.1).map_err(|e| anyhow!("{e}"))?;
+    Ok(cam)
+}
+
+/// Renders with a progress bar on a terminal (quiet when stderr is piped).
+pub fn render_with_progress(
+    scene: &RenderScene,
+    cam: &Camera,
+    s: &RenderSettings,
+) -> anyhow::Result<RenderOutput> {
+    let bar = super::progress::bar(u64::from(s.width) * u64::from(s.height), "rendering");
+    let out = render(scene, cam, s, &|n| bar.inc(n)).map_err(|e| anyhow!("{e}"))?;
+    bar.finish_and_clear();
+    Ok(out)
+}
+
+pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+    // Check the output name before the (possibly long) render.
+    ImageFormat::from_path(&args.output)?;
+    let options = LoadOptions { materials_files: args.materials.clone() };
+    let scene = scene::load(&args.scene, &options)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let world = World::build(scene);
+    let s = settings(args, &world).with_context(|| args.scene.display().to_string())?;
+    let cam = camera(args, &world, s.width as f32 / s.height as f32)
+        .with_context(|| args.scene.display().to_string())?;
+    let rs = RenderScene::new(&world);
+    let out = render_with_progress(&rs, &cam, &s)?;
+    out.film.write(&args.output)?;
+    println!("{}", summary(&args.output, &s, &out));
+    Ok(())
+}
+
+/// One line: what was written and how fast.
+pub fn summary(path: &Path, s: &RenderSettings, out: &RenderOutput) -> String {
+    format!(
+        "wrote {}: {}x{}, {} spp, {}, max depth {}, {:.2} s, {:.2} M samples/s, {:.2} Mrays/s",
+        path.display(),
+        s.width,
+        s.height,
+        s.spp,
+        s.integrator.name(),
+        s.max_depth,
+        out.seconds,
+        out.samples as f64 / out.seconds / 1e6,
+        out.rays as f64 / out.seconds / 1e6
+    )
+}

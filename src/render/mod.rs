@@ -1,0 +1,521 @@
+//! The image simulator: a camera, BSDFs, lights and four integrators (`raycast`, `whitted`,
+//! `distributed`, `path`) over the shared tracing core.
+//!
+//! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
+//! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
+//! any thread count. Depends on `crate::core` and `crate::scene` only.
+//!
+//! ```no_run
+//! use propsim::render::{self, RenderSettings};
+//! let scene = propsim::scene::load("builtin:cornell_box_classic".as_ref(), &Default::default()).unwrap();
+//! let world = propsim::scene::World::build(scene);
+//! let settings = RenderSettings { spp: 16, ..RenderSettings::default() };
+//! let image = render::render_world(&world, &settings).unwrap();
+//! image.film.write("out/cornell.png".as_ref()).unwrap();
+//! ```
+
+pub mod bsdf;
+pub mod camera;
+pub mod distributed;
+pub mod film;
+pub mod lights;
+pub mod path;
+pub mod raycast;
+pub mod whitted;
+
+use std::str::FromStr;
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use rand::RngCore;
+
+use crate::core::rng::{Rng64, stream, uniform};
+use crate::core::sampling::{orthonormal_basis, stratified_2d};
+use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
+use crate::scene::materials::{OpticalKind, OpticalProps};
+use crate::scene::{Surface, World};
+
+pub use bsdf::Bsdf;
+pub use camera::Camera;
+pub use film::Film;
+pub use lights::{Light, Lights};
+
+/// Random-stream domain of the per-pixel streams (see [`crate::core::rng::stream`]).
+pub const PIXEL_DOMAIN: u64 = 0x5245_4e44; // "REND"
+/// Largest accepted image side, pixels.
+pub const MAX_IMAGE_SIDE: u32 = 16_384;
+/// Largest accepted samples per pixel.
+pub const MAX_SPP: u32 = 1 << 20;
+/// Largest accepted path depth.
+pub const MAX_DEPTH: u32 = 1024;
+/// Tile side in pixels: the unit of parallel work.
+pub const TILE: u32 = 16;
+
+/// The integrators `--integrator` chooses from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum IntegratorKind {
+    /// Primary visibility and local Lambert/Blinn-Phong shading, no shadows.
+    Raycast,
+    /// Whitted 1980: shadow rays to point lights, mirror reflection, Fresnel-weighted refraction.
+    Whitted,
+    /// Cook, Porter, Carpenter 1984: jittered pixels, soft shadows, glossy reflection, depth of field.
+    Distributed,
+    /// Unidirectional path tracing with NEE and MIS (the default).
+    #[default]
+    Path,
+}
+
+impl IntegratorKind {
+    pub const NAMES: [&'static str; 4] = ["raycast", "whitted", "distributed", "path"];
+
+    pub fn name(self) -> &'static str {
+        Self::NAMES[self as usize]
+    }
+
+    /// Whether the pixel samples are jittered (stochastic integrators) or at strata centres.
+    fn jitters(self) -> bool {
+        matches!(self, Self::Distributed | Self::Path)
+    }
+}
+
+impl FromStr for IntegratorKind {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "raycast" => Ok(Self::Raycast),
+            "whitted" => Ok(Self::Whitted),
+            "distributed" => Ok(Self::Distributed),
+            "path" => Ok(Self::Path),
+            _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
+        }
+    }
+}
+
+/// What to render and how.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Maximum number of bounces (1 = direct lighting only; pbrt-v4's `maxdepth`).
+    pub max_depth: u32,
+    pub integrator: IntegratorKind,
+    pub seed: u64,
+    /// Radiance of rays that leave the scene; `None` keeps the scene's (default black).
+    pub background: Option<Vec3>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        Self {
+            width: 256,
+            height: 256,
+            spp: 64,
+            max_depth: 8,
+            integrator: IntegratorKind::Path,
+            seed: 0,
+            background: None,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Checks the numbers; the error is one line naming the bad setting.
+    pub fn validate(&self) -> Result<(), String> {
+        for (name, v) in [("width", self.width), ("height", self.height)] {
+            if !(1..=MAX_IMAGE_SIDE).contains(&v) {
+                return Err(format!("{name} {v}: must be between 1 and {MAX_IMAGE_SIDE} pixels"));
+            }
+        }
+        if !(1..=MAX_SPP).contains(&self.spp) {
+            return Err(format!("spp {}: must be between 1 and {MAX_SPP}", self.spp));
+        }
+        if self.max_depth > MAX_DEPTH {
+            return Err(format!("max depth {}: must be at most {MAX_DEPTH}", self.max_depth));
+        }
+        if let Some(b) = self.background
+            && !(b.is_finite() && b.min_element() >= 0.0)
+        {
+            return Err(format!("background {b} must be finite and non-negative"));
+        }
+        Ok(())
+    }
+}
+
+/// How a surface looks: its BSDF and emitted radiance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceOptics {
+    pub bsdf: Bsdf,
+    /// Radiance emitted from the front face (the side the winding's normal points to).
+    pub emission: Vec3,
+}
+
+impl SurfaceOptics {
+    pub fn diffuse(albedo: Vec3) -> Self {
+        Self { bsdf: Bsdf::Lambert { albedo }, emission: Vec3::ZERO }
+    }
+
+    /// From propsim's optical material properties; GGX `alpha = roughness^2` (Burley 2012).
+    pub fn from_optical(o: &OpticalProps) -> Self {
+        let bsdf = match o.kind {
+            OpticalKind::Diffuse => Bsdf::Lambert { albedo: o.color },
+            OpticalKind::Metal => Bsdf::Metal { f0: o.color, alpha: o.roughness * o.roughness },
+            OpticalKind::Dielectric => Bsdf::Dielectric { eta: o.ior, tint: o.color },
+        };
+        Self { bsdf, emission: o.emission }
+    }
+
+    /// A surface's optics: the material's `optical` if it has one, else its MTL entry
+    /// (`Kd`; `Ks`/`Ns` as a metal when specular dominates; `d < 1` or illum 4, 6, 7, 9 as glass
+    /// of index `Ni`; `Ke`), else grey 0.7 Lambert.
+    pub fn from_surface(s: &Surface) -> Self {
+        if let Some(o) = s.material.as_ref().and_then(|m| m.optical.as_ref()) {
+            return Self::from_optical(o);
+        }
+        let Some(m) = &s.mtl else {
+            return Self::from_optical(&OpticalProps::default());
+        };
+        let v = |a: Option<[f32; 3]>| a.map(Vec3::from).filter(|v| v.is_finite()).map(|v| v.max(Vec3::ZERO));
+        let kd = v(m.diffuse).unwrap_or(Vec3::splat(0.7)).min(Vec3::ONE);
+        let ks = v(m.specular).unwrap_or(Vec3::ZERO).min(Vec3::ONE);
+        let emission = v(m.emission).unwrap_or(Vec3::ZERO);
+        let transparent = m.dissolve.is_some_and(|d| d < 1.0)
+            || matches!(m.illumination_model, Some(4) | Some(6) | Some(7) | Some(9));
+        let bsdf = if transparent {
+            let eta = m.optical_density.filter(|n| n.is_finite() && *n >= 1.0).unwrap_or(1.5);
+            Bsdf::Dielectric { eta, tint: Vec3::ONE }
+        } else if ks.max_element() > kd.max_element() || m.illumination_model == Some(3) && ks != Vec3::ZERO {
+            // Phong exponent to microfacet roughness: alpha = sqrt(2 / (Ns + 2)) (Walter et al.
+            // 2007, sec. 5.2, the Beckmann-Phong correspondence, used for GGX too).
+            let ns = m.shininess.filter(|n| n.is_finite() && *n >= 0.0).unwrap_or(100.0);
+            Bsdf::Metal { f0: ks, alpha: (2.0 / (ns + 2.0)).sqrt() }
+        } else {
+            Bsdf::Lambert { albedo: kd }
+        };
+        Self { bsdf, emission }
+    }
+}
+
+/// The renderer's view of a world: the acceleration structure, each surface's optics, the
+/// lights and the background radiance.
+pub struct RenderScene<'a> {
+    pub accel: &'a Accel,
+    /// Indexed by surface id.
+    pub surfaces: Vec<SurfaceOptics>,
+    pub lights: Lights,
+    pub background: Vec3,
+    /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
+    /// a hit needs only these, so the renderer skips the core's barycentric recomputation.
+    triangles: Vec<(Vec3, u32)>,
+}
+
+impl<'a> RenderScene<'a> {
+    /// The render scene of a loaded world (materials resolved per [`SurfaceOptics::from_surface`],
+    /// point lights from `[[lights]]`, background from `[render]`).
+    pub fn new(world: &'a World) -> Self {
+        let s = &world.scene;
+        let surfaces: Vec<SurfaceOptics> = s.surfaces.iter().map(SurfaceOptics::from_surface).collect();
+        let points: Vec<(Vec3, Vec3)> =
+            s.desc.lights.iter().map(|l| (Vec3::from(l.position), Vec3::from(l.intensity))).collect();
+        let background =
+            s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
+        Self::from_parts(&world.accel, &s.mesh, &s.spheres, surfaces, &points, background)
+    }
+
+    /// A render scene from its parts; `points` are (position, intensity) point lights.
+    pub fn from_parts(
+        accel: &'a Accel,
+        mesh: &TriangleMesh,
+        spheres: &[Sphere],
+        surfaces: Vec<SurfaceOptics>,
+        points: &[(Vec3, Vec3)],
+        background: Vec3,
+    ) -> Self {
+        let emission: Vec<Vec3> = surfaces.iter().map(|s| s.emission).collect();
+        let lights = Lights::new(points, mesh, spheres, &emission);
+        let triangles = (0..mesh.triangle_count())
+            .map(|i| {
+                let [a, b, c] = mesh.corners(i);
+                ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
+            })
+            .collect();
+        Self { accel, surfaces, lights, background, triangles }
+    }
+
+    /// The closest hit along `ray` (barycentrics are not computed: zero).
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut best = self.accel.mesh.closest_triangle(ray).map(|(i, t)| {
+            let (normal, surface) = self.triangles[i as usize];
+            Hit {
+                t,
+                point: ray.at(t),
+                normal,
+                barycentric: Vec2::ZERO,
+                primitive: i,
+                kind: PrimitiveKind::Triangle,
+                surface,
+                front_face: normal.dot(ray.dir) < 0.0,
+            }
+        });
+        if !self.accel.spheres.is_empty() {
+            let mut r = *ray;
+            if let Some(h) = &best {
+                r.t_max = h.t;
+            }
+            if let Some(h) = self.accel.spheres.closest_hit(&r) {
+                best = Some(h);
+            }
+        }
+        best
+    }
+
+    /// Radiance emitted by the surface at `hit` back along the ray.
+    #[inline]
+    pub fn emitted(&self, hit: &Hit) -> Vec3 {
+        if hit.front_face { self.surfaces[hit.surface as usize].emission } else { Vec3::ZERO }
+    }
+
+    /// The light that the primitive at `hit` is, if any.
+    #[inline]
+    pub fn light_of(&self, hit: &Hit) -> Option<usize> {
+        match hit.kind {
+            PrimitiveKind::Triangle => self.lights.of_triangle(hit.primitive),
+            PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
+        }
+    }
+
+    /// Density per solid angle with which next-event estimation from `p` would have chosen the
+    /// emitter point at `hit` reached along unit `dir` (light choice included).
+    pub fn light_pdf(&self, p: Vec3, dir: Vec3, hit: &Hit) -> f32 {
+        self.light_of(hit)
+            .map_or(0.0, |l| self.lights.pmf(l) * self.lights.lights[l].pdf(p, dir, hit.point, hit.normal))
+    }
+
+    /// True when the segment from `hit` to `target` is blocked.
+    #[inline]
+    pub fn occluded(&self, hit: &Hit, target: Vec3) -> bool {
+        self.accel.occluded(&Ray::spawn_to(hit.point, hit.normal, target))
+    }
+}
+
+/// A local shading frame whose z axis is a surface normal.
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub t: Vec3,
+    pub b: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    #[inline]
+    pub fn new(n: Vec3) -> Self {
+        let (t, b) = orthonormal_basis(n);
+        Self { t, b, n }
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.t * v.x + self.b * v.y + self.n * v.z
+    }
+}
+
+/// Two uniform numbers.
+#[inline]
+pub fn u2(rng: &mut Rng64) -> Vec2 {
+    Vec2::new(uniform(rng), uniform(rng))
+}
+
+/// Veach's power heuristic with exponent 2 (Veach 1997, sec. 9.2.4).
+#[inline]
+pub fn power_heuristic(f: f32, g: f32) -> f32 {
+    let (f2, g2) = (f * f, g * g);
+    if f2.is_infinite() {
+        return 1.0;
+    }
+    if f2 + g2 == 0.0 { 0.0 } else { f2 / (f2 + g2) }
+}
+
+/// A finished image and what it cost.
+#[derive(Clone, Debug)]
+pub struct RenderOutput {
+    pub film: Film,
+    /// Camera samples taken (pixels x spp).
+    pub samples: u64,
+    /// Rays traced: closest-hit and shadow queries.
+    pub rays: u64,
+    pub seconds: f64,
+}
+
+/// Radiance along a camera ray by the chosen integrator; counts traced rays into `rays`.
+#[inline]
+pub fn radiance(
+    scene: &RenderScene,
+    integrator: IntegratorKind,
+    ray: Ray,
+    max_depth: u32,
+    first: Option<path::FirstVertexSamples>,
+    rng: &mut Rng64,
+    rays: &mut u64,
+) -> Vec3 {
+    match integrator {
+        IntegratorKind::Raycast => raycast::li(scene, &ray, rays),
+        IntegratorKind::Whitted => whitted::li(scene, &ray, 0, max_depth, rays),
+        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, first, rng, rays),
+        IntegratorKind::Path => path::li(scene, ray, max_depth, first, rng, rays),
+    }
+}
+
+/// The `(nx, ny)` strata of `spp` samples: the most nearly square factorisation.
+pub fn strata(spp: u32) -> (usize, usize) {
+    let mut nx = (f64::from(spp).sqrt() as u32).max(1);
+    while !spp.is_multiple_of(nx) {
+        nx -= 1;
+    }
+    (nx as usize, (spp / nx) as usize)
+}
+
+/// Greatest common divisor.
+fn gcd(mut a: usize, mut b: usize) -> usize {
+    while b != 0 {
+        (a, b) = (b, a % b);
+    }
+    a
+}
+
+/// Renders pixel `(x, y)`: the box-filtered mean of `spp` stratified samples.
+#[inline]
+fn render_pixel(
+    scene: &RenderScene,
+    camera: &Camera,
+    s: &RenderSettings,
+    x: u32,
+    y: u32,
+    rays: &mut u64,
+) -> Vec3 {
+    let index = u64::from(y) * u64::from(s.width) + u64::from(x);
+    let mut rng = stream(s.seed, PIXEL_DOMAIN, index);
+    let (nx, ny) = strata(s.spp);
+    let jitter = s.integrator.jitters();
+    let (w, h) = (s.width as f32, s.height as f32);
+    let spp = s.spp as usize;
+    // Shuffled stratum orders for the first vertex's light and BSDF samples: k -> (m k + c)
+    // mod spp with m coprime to spp, drawn per pixel (a cheap stand-in for a random permutation).
+    let shuffle = |rng: &mut Rng64| {
+        let mut m = (rng.next_u64() % spp as u64) as usize | 1;
+        while gcd(m, spp) != 1 {
+            m += 1;
+        }
+        (m % spp.max(1), (rng.next_u64() % spp as u64) as usize)
+    };
+    let (light_order, bsdf_order) =
+        if jitter { (shuffle(&mut rng), shuffle(&mut rng)) } else { ((1, 0), (1, 0)) };
+    let mut sum = Vec3::ZERO;
+    for k in 0..spp {
+        let u = if jitter { u2(&mut rng) } else { Vec2::splat(0.5) };
+        let o = stratified_2d(k, nx, ny, u);
+        let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
+        let lens = if camera.aperture_radius_m > 0.0 { u2(&mut rng) } else { Vec2::ZERO };
+        let first = jitter.then(|| {
+            let kl = (light_order.0 * k + light_order.1) % spp;
+            let kb = (bsdf_order.0 * k + bsdf_order.1) % spp;
+            path::FirstVertexSamples {
+                light: stratified_2d(kl, nx, ny, u2(&mut rng)),
+                bsdf: stratified_2d(kb, nx, ny, u2(&mut rng)),
+            }
+        });
+        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, first, &mut rng, rays);
+        // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
+        if l.is_finite() {
+            sum += l;
+        }
+    }
+    sum / s.spp as f32
+}
+
+/// Renders an image. `progress(pixels)` is called as tiles finish (from worker threads).
+pub fn render(
+    scene: &RenderScene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<RenderOutput, String> {
+    settings.validate()?;
+    let start = Instant::now();
+    let scene_bg;
+    let scene = match settings.background {
+        Some(background) => {
+            scene_bg = RenderScene {
+                accel: scene.accel,
+                surfaces: scene.surfaces.clone(),
+                lights: scene.lights.clone(),
+                background,
+                triangles: scene.triangles.clone(),
+            };
+            &scene_bg
+        }
+        None => scene,
+    };
+    let (w, h) = (settings.width, settings.height);
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let done: Vec<(Vec<Vec3>, u64)> = tiles
+        .par_iter()
+        .map(|&(x0, y0)| {
+            let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+            let mut rays = 0u64;
+            let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    px.push(render_pixel(scene, camera, settings, x, y, &mut rays));
+                }
+            }
+            progress(u64::from((x1 - x0) * (y1 - y0)));
+            (px, rays)
+        })
+        .collect();
+    let mut film = Film::new(w, h);
+    let mut rays = 0;
+    for (&(x0, y0), (px, r)) in tiles.iter().zip(done) {
+        rays += r;
+        let tw = (x0 + TILE).min(w) - x0;
+        for (k, p) in px.into_iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            film.pixels[(y * w + x) as usize] = p;
+        }
+    }
+    Ok(RenderOutput {
+        film,
+        samples: u64::from(w) * u64::from(h) * u64::from(settings.spp),
+        rays,
+        seconds: start.elapsed().as_secs_f64(),
+    })
+}
+
+/// The camera of a world: the scene's `[camera]`, else an automatic view of the bounds.
+pub fn scene_camera(world: &World, aspect: f32) -> Result<Camera, String> {
+    match &world.scene.desc.camera {
+        Some(d) => Camera::from_desc(d, aspect),
+        None => {
+            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+            let (eye, target) = Camera::auto_view(lo, hi, Vec3::Z, 40.0);
+            Camera::look_at(eye, target, Vec3::Z, 40.0, aspect)
+        }
+    }
+}
+
+/// Renders a world with its own camera: the few-line library entry point.
+pub fn render_world(world: &World, settings: &RenderSettings) -> Result<RenderOutput, String> {
+    let scene = RenderScene::new(world);
+    let camera = scene_camera(world, settings.width as f32 / settings.height as f32)?;
+    render(&scene, &camera, settings, &|_| {})
+}

@@ -1,0 +1,168 @@
+//! Unidirectional path tracing (Kajiya 1986) with next-event estimation and BSDF sampling
+//! combined by multiple importance sampling with the power heuristic (Veach 1997, ch. 9), and
+//! Russian roulette; the structure of pbrt-v4's `PathIntegrator` (sec. 13.4).
+//!
+//! The same loop serves the distributed ray tracer ([`super::distributed`]), which stops at the
+//! first diffuse vertex after its direct lighting.
+
+use glam::{Vec2, Vec3};
+
+use super::{Bsdf, Frame, RenderScene, power_heuristic, u2};
+use crate::core::Ray;
+use crate::core::rng::{Rng64, uniform};
+use crate::core::{Hit, rng};
+
+/// Bounces after which Russian roulette may end a path.
+const RR_START_DEPTH: u32 = 3;
+
+/// Which vertices continue the path.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PathMode {
+    /// Every vertex scatters (full global illumination).
+    Full,
+    /// Diffuse vertices take direct light only; specular and glossy ones continue (Cook 1984).
+    StopAtDiffuse,
+}
+
+/// A surface point being shaded: the hit, its frame, the outgoing direction (local) and BSDF.
+pub struct Vertex<'h> {
+    pub hit: &'h Hit,
+    pub frame: Frame,
+    pub wo: Vec3,
+    pub bsdf: Bsdf,
+}
+
+/// Direct lighting at a vertex from one light chosen by power: `f |cos| Li / pdf`, weighted
+/// against BSDF sampling by the power heuristic when `mis` (area lights only; point lights
+/// are Dirac and always take full weight).
+#[inline]
+pub fn sample_direct(
+    scene: &RenderScene,
+    v: &Vertex,
+    u: Vec2,
+    rng: &mut Rng64,
+    rays: &mut u64,
+    mis: bool,
+) -> Vec3 {
+    let ul = uniform(rng);
+    let Some((index, pmf)) = scene.lights.choose(ul) else {
+        return Vec3::ZERO;
+    };
+    let Some(ls) = scene.lights.lights[index].sample(v.hit.point, u) else {
+        return Vec3::ZERO;
+    };
+    let wi = v.frame.to_local(ls.wi);
+    let f = v.bsdf.eval(v.wo, wi) * wi.z.abs();
+    if f == Vec3::ZERO || ls.li == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    if scene.occluded(v.hit, ls.point) {
+        return Vec3::ZERO;
+    }
+    if ls.delta {
+        return f * ls.li / pmf;
+    }
+    let light_pdf = ls.pdf * pmf;
+    let w = if mis { power_heuristic(light_pdf, v.bsdf.pdf(v.wo, wi)) } else { 1.0 };
+    f * ls.li * (w / light_pdf)
+}
+
+/// Stratified sample pairs for the first surface vertex of a path: the point on the light
+/// and the BSDF direction (padded stratification, pbrt-v4 sec. 8.5: each dimension pair is
+/// stratified on its own, with a shuffled stratum order so the pairs are not correlated).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FirstVertexSamples {
+    pub light: Vec2,
+    pub bsdf: Vec2,
+}
+
+/// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
+/// (1 = direct lighting only).
+pub fn li(
+    scene: &RenderScene,
+    ray: Ray,
+    max_depth: u32,
+    first: Option<FirstVertexSamples>,
+    rng: &mut rng::Rng64,
+    rays: &mut u64,
+) -> Vec3 {
+    trace(scene, ray, max_depth, first, rng, rays, PathMode::Full)
+}
+
+/// The shared path loop.
+pub fn trace(
+    scene: &RenderScene,
+    mut ray: Ray,
+    max_depth: u32,
+    mut first: Option<FirstVertexSamples>,
+    rng: &mut Rng64,
+    rays: &mut u64,
+    mode: PathMode,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    // The camera ray counts as specular: emitters it sees take full weight.
+    let mut specular = true;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_point = ray.origin;
+    let mut depth = 0u32;
+    loop {
+        *rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            l += beta * scene.background;
+            break;
+        };
+        let optics = &scene.surfaces[hit.surface as usize];
+        if hit.front_face && optics.emission != Vec3::ZERO {
+            if specular {
+                l += beta * optics.emission;
+            } else {
+                let light_pdf = scene.light_pdf(prev_point, ray.dir, &hit);
+                l += beta * optics.emission * power_heuristic(prev_pdf, light_pdf);
+            }
+        }
+        if depth >= max_depth {
+            break;
+        }
+        depth += 1;
+        let bsdf = optics.bsdf;
+        let frame = Frame::new(hit.normal);
+        let wo = frame.to_local(-ray.dir);
+        let delta = bsdf.is_delta();
+        let (u_light, u_bsdf) = match first.take() {
+            Some(f) => (f.light, f.bsdf),
+            None => (u2(rng), u2(rng)),
+        };
+        if !delta {
+            // A diffuse vertex of the distributed tracer is not continued, so its light sample
+            // must carry the full estimate (no MIS).
+            let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, Bsdf::Lambert { .. });
+            let v = Vertex { hit: &hit, frame, wo, bsdf };
+            l += beta * sample_direct(scene, &v, u_light, rng, rays, !stop);
+            if stop {
+                break;
+            }
+        }
+        let uc = uniform(rng);
+        let Some(s) = bsdf.sample(wo, u_bsdf, uc) else {
+            break;
+        };
+        beta *= s.weight();
+        specular = s.specular;
+        prev_pdf = s.pdf;
+        prev_point = hit.point;
+        ray = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
+        if depth >= RR_START_DEPTH {
+            // Survive with probability max(beta) (at most 1): unbiased, and cheap paths end early.
+            let q = beta.max_element().min(1.0);
+            if q <= 0.0 || uniform(rng) >= q {
+                break;
+            }
+            beta /= q;
+        } else if beta == Vec3::ZERO {
+            break;
+        }
+    }
+    l
+}

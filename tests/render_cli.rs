@@ -1,0 +1,175 @@
+//! `propsim render` from the command line: defaults, formats, automatic camera, progress
+//! quiet when piped, and a clean one-line error for every bad input.
+
+use std::path::Path;
+use std::process::Command;
+
+fn propsim_in(dir: &Path, args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).current_dir(dir).args(args).output().expect("runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+fn assert_clean_error(args: &[&str], needles: &[&str]) {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, _, err) = propsim_in(dir.path(), args);
+    assert!(!ok, "{args:?} should fail");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "{args:?}: one error line expected, got: {err}");
+    assert!(lines[0].starts_with("error:"), "{err}");
+    for n in needles {
+        assert!(lines[0].contains(n), "{args:?}: error should mention \"{n}\": {err}");
+    }
+    assert!(!dir.path().join("out").exists(), "{args:?}: nothing written on error");
+}
+
+/// A room open at the front (y = 0), with a ceiling lamp facing down.
+const ROOM_OBJ: &str = "\
+v 0 0 0
+v 4 0 0
+v 4 3 0
+v 0 3 0
+v 0 0 2.5
+v 4 0 2.5
+v 4 3 2.5
+v 0 3 2.5
+usemtl floor_red
+f 1 2 3 4
+usemtl wall
+f 2 3 7 6
+f 4 1 5 8
+usemtl lamp
+f 8 7 6 5
+";
+
+const ROOM_MTL: &str = "\
+newmtl floor_red
+Kd 0.8 0.1 0.1
+newmtl wall
+Kd 0.7 0.7 0.7
+newmtl lamp
+Kd 0 0 0
+Ke 4 4 4
+";
+
+#[test]
+fn no_arguments_renders_the_classic_cornell_box_to_out_render_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, out, err) = propsim_in(dir.path(), &["render"]);
+    assert!(ok, "{err}");
+    assert!(err.is_empty(), "quiet when piped: {err}");
+    assert!(out.contains("out/render.png") && out.contains("256x256"), "{out}");
+    let img = image::open(dir.path().join("out/render.png")).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (256, 256));
+    // Red wall on the left, green on the right, a bright light at the top centre.
+    let left = img.get_pixel(20, 128).0;
+    let right = img.get_pixel(236, 128).0;
+    assert!(left[0] > 2 * left[1] && right[1] > right[0], "{left:?} {right:?}");
+    assert!(img.get_pixel(128, 32).0.iter().all(|&c| c > 200));
+}
+
+#[test]
+fn bare_obj_gets_an_automatic_camera_and_exr_output_is_linear_float() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("room.obj"), format!("mtllib room.mtl\n{ROOM_OBJ}")).unwrap();
+    std::fs::write(dir.path().join("room.mtl"), ROOM_MTL).unwrap();
+    let (ok, out, err) = propsim_in(
+        dir.path(),
+        &[
+            "render",
+            "room.obj",
+            "-o",
+            "img/room.exr",
+            "--width",
+            "40",
+            "--height",
+            "30",
+            "--spp",
+            "8",
+            "--threads",
+            "2",
+        ],
+    );
+    assert!(ok, "{err}");
+    assert!(out.contains("40x30"), "{out}");
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        dir.path().join("img/room.exr"),
+        |r, _| vec![(0.0f32, 0.0f32, 0.0f32); r.width() * r.height()],
+        |v: &mut Vec<(f32, f32, f32)>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+            v[p.y() * 40 + p.x()] = (r, g, b)
+        },
+    )
+    .unwrap();
+    let px = &img.layer_data.channel_data.pixels;
+    assert_eq!(px.len(), 40 * 30);
+    // The automatic view sees the room: plenty of lit pixels, some red floor.
+    assert!(px.iter().filter(|p| p.0 + p.1 + p.2 > 0.0).count() > 120);
+    assert!(px.iter().any(|p| p.0 > 3.0 * p.1 && p.0 > 0.01));
+    // The flags override the automatic camera; every integrator runs.
+    for integrator in ["raycast", "whitted", "distributed", "path"] {
+        let (ok, _, err) = propsim_in(
+            dir.path(),
+            &[
+                "render",
+                "room.obj",
+                "-o",
+                "r.png",
+                "--width",
+                "16",
+                "--height",
+                "16",
+                "--spp",
+                "1",
+                "--integrator",
+                integrator,
+                "--eye",
+                "2,1.5,1.2",
+                "--target",
+                "2,3,1",
+                "--up",
+                "0,0,1",
+                "--fov-deg",
+                "60",
+                "--seed",
+                "7",
+                "--max-depth",
+                "3",
+            ],
+        );
+        assert!(ok, "{integrator}: {err}");
+    }
+}
+
+#[test]
+fn bad_inputs_give_one_line_errors() {
+    // Small defaults, unless the case sets the flag itself.
+    let with = |extra: &[&'static str]| -> Vec<&'static str> {
+        let mut v = vec!["render"];
+        for (flag, value) in [("--width", "8"), ("--height", "8"), ("--spp", "1")] {
+            if !extra.contains(&flag) {
+                v.extend([flag, value]);
+            }
+        }
+        v.extend(extra);
+        v
+    };
+    assert_clean_error(&with(&["--spp", "0"]), &["spp 0"]);
+    assert_clean_error(&with(&["--width", "0"]), &["width 0"]);
+    assert_clean_error(&with(&["--height", "20000"]), &["height 20000", "16384"]);
+    assert_clean_error(&with(&["--integrator", "photon"]), &["photon", "path"]);
+    assert_clean_error(&with(&["--eye", "nan,0,0"]), &["--eye", "finite"]);
+    assert_clean_error(&with(&["--eye", "1,2"]), &["--eye", "X,Y,Z"]);
+    assert_clean_error(&with(&["--eye", "1,1,1", "--target", "1,1,1"]), &["eye and target"]);
+    assert_clean_error(&with(&["--up", "0,1,0"]), &["up"]);
+    assert_clean_error(&with(&["--fov-deg", "0"]), &["field of view"]);
+    assert_clean_error(&with(&["--fov-deg", "NaN"]), &["field of view"]);
+    assert_clean_error(&with(&["--max-depth", "5000"]), &["max depth"]);
+    assert_clean_error(&with(&["-o", "picture.jpg"]), &["picture.jpg", ".png"]);
+    assert_clean_error(&with(&["-o", "picture"]), &["picture", "extension"]);
+    assert_clean_error(&["render", "missing.toml"], &["missing.toml"]);
+    assert_clean_error(&["render", "builtin:nope"], &["nope"]);
+}
