@@ -3,7 +3,22 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
-    let cli = propsim::cli::Cli::parse();
+    let cli = match propsim::cli::Cli::try_parse() {
+        Ok(cli) => cli,
+        // Usage errors on one line, like every other error; help and version print as usual.
+        Err(e) if e.use_stderr() => {
+            let text = e.render().to_string();
+            let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: invalid arguments");
+            let first = first.trim();
+            if first.starts_with("error:") {
+                eprintln!("{first}");
+            } else {
+                eprintln!("error: {first}");
+            }
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
     match propsim::cli::run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

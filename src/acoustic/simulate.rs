@@ -116,6 +116,30 @@ pub fn default_receiver_radius_m(volume_m3: f64, rays: u64, speed_m_s: f64, bin_
     r.clamp(0.05, 0.5) as f32
 }
 
+/// The acoustic data of every surface, or an error listing the surfaces that have none.
+pub fn surface_acoustics(world: &World) -> Result<Vec<SurfaceAcoustics>, String> {
+    let mut missing = Vec::new();
+    let surfaces: Vec<SurfaceAcoustics> = world
+        .scene
+        .surfaces
+        .iter()
+        .map(|s| match s.material.as_ref().and_then(|m| m.acoustic.as_ref()) {
+            Some(a) => SurfaceAcoustics { absorption: a.absorption, scattering: a.scattering },
+            None => {
+                missing.push(s.name.clone());
+                SurfaceAcoustics { absorption: [0.0; BAND_COUNT], scattering: [0.0; BAND_COUNT] }
+            }
+        })
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "surfaces without acoustic data (absorption): {}; map them to library materials in [surfaces] or give a materials file",
+            missing.join(", ")
+        ));
+    }
+    Ok(surfaces)
+}
+
 /// Runs the simulation. Errors are one-line messages about the scene or settings.
 pub fn simulate(
     world: &World,
@@ -141,24 +165,7 @@ pub fn simulate(
     let report = &world.report;
     let volume_m3 =
         report.air_volume_m3.ok_or("the scene encloses no air: room acoustics needs a closed room")?;
-    let mut missing = Vec::new();
-    let surfaces: Vec<SurfaceAcoustics> = scene
-        .surfaces
-        .iter()
-        .map(|s| match s.material.as_ref().and_then(|m| m.acoustic.as_ref()) {
-            Some(a) => SurfaceAcoustics { absorption: a.absorption, scattering: a.scattering },
-            None => {
-                missing.push(s.name.clone());
-                SurfaceAcoustics { absorption: [0.0; BAND_COUNT], scattering: [0.0; BAND_COUNT] }
-            }
-        })
-        .collect();
-    if !missing.is_empty() {
-        return Err(format!(
-            "surfaces without acoustic data (absorption): {}; map them to library materials in [surfaces] or give a materials file",
-            missing.join(", ")
-        ));
-    }
+    let surfaces = surface_acoustics(world)?;
     let c = settings.air.speed_of_sound_m_s();
     let air_per_m =
         if settings.air_absorption { settings.air.energy_coefficient_per_m() } else { [0.0; BAND_COUNT] };

@@ -297,7 +297,7 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
             .map(|p| ReceiverSpec {
                 name: p.name.clone(),
                 position: p.position,
-                radius_m: p.radius_m.or(args.receiver_radius_m),
+                radius_m: args.receiver_radius_m.or(p.radius_m),
             })
             .collect()
     } else {
@@ -314,6 +314,8 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
     if world.report.air_volume_m3.is_none() {
         anyhow::bail!("{scene_label}: the scene encloses no air; room acoustics needs a closed room");
     }
+    crate::acoustic::simulate::surface_acoustics(&world)
+        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     if sources.is_empty() {
         let p = place_inside(&world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a source 0.5 m from every surface")

@@ -2,6 +2,7 @@
 //! own file; all report errors as one line naming the file and the problem.
 
 pub mod acoustic;
+pub mod bench_acoustic;
 pub mod bench_render;
 pub mod bench_trace;
 pub mod info;
@@ -46,6 +47,8 @@ pub enum BenchCommand {
     /// Render the classic Cornell box (256x256, depth 8) several times: samples/s, Mrays/s
     /// and wall time (median).
     Render(bench_render::BenchRenderArgs),
+    /// Time the whole acoustic job (shoebox and BRAS CR2 by default): wall time and rays/s.
+    Acoustic(bench_acoustic::BenchAcousticArgs),
 }
 
 /// Runs the command line; the error, if any, is for `main` to print on one line.
@@ -59,6 +62,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Acoustic(args) => acoustic::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
+        Command::Bench(BenchCommand::Acoustic(args)) => bench_acoustic::run(&args),
         Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
     }
 }

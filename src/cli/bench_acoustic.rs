@@ -1,0 +1,85 @@
+//! `propsim bench acoustic`: wall time and rays per second of the whole acoustic job
+//! (rays, image sources, histograms, parameters and impulse responses, no file writing) on
+//! the shoebox and on BRAS CR2 (10 source-receiver pairs, all bands).
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use super::bench_trace::{median, peak_rss_mb};
+use crate::acoustic::impulse_response::synthesize;
+use crate::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
+use crate::scene::{self, LoadOptions, World};
+
+#[derive(Args, Debug)]
+pub struct BenchAcousticArgs {
+    /// Scenes to time (default: builtin:shoebox and builtin:bras_cr2).
+    pub scenes: Vec<PathBuf>,
+    /// Rays per source.
+    #[arg(long, default_value_t = 100_000)]
+    pub rays: u64,
+    /// Timed repetitions; the median is reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+}
+
+pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
+    let scenes = if args.scenes.is_empty() {
+        vec![PathBuf::from("builtin:shoebox"), PathBuf::from("builtin:bras_cr2")]
+    } else {
+        args.scenes.clone()
+    };
+    println!("threads: {}", rayon::current_num_threads());
+    for path in scenes {
+        let world = World::build(scene::load(&path, &LoadOptions::default())?);
+        let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
+        let sources: Vec<SourceSpec> = desc
+            .sources
+            .iter()
+            .map(|p| SourceSpec { name: p.name.clone(), position: p.position, power_w: 1.0 })
+            .collect();
+        let receivers: Vec<ReceiverSpec> = desc
+            .receivers
+            .iter()
+            .map(|p| ReceiverSpec { name: p.name.clone(), position: p.position, radius_m: p.radius_m })
+            .collect();
+        anyhow::ensure!(
+            !sources.is_empty() && !receivers.is_empty(),
+            "{}: the scene has no sources or receivers",
+            path.display()
+        );
+        let settings = AcousticSettings {
+            rays: args.rays,
+            max_time_s: desc.max_time_s.map(f64::from),
+            ..Default::default()
+        };
+        let mut times = Vec::new();
+        let mut pairs = 0;
+        for _ in 0..args.repeat.max(1) {
+            let t = Instant::now();
+            let r = simulate(&world, &sources, &receivers, &settings, &|_| {})
+                .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
+            for p in &r.pairs {
+                std::hint::black_box(synthesize(&p.histogram, r.bin_s, r.volume_m3, r.speed_of_sound_m_s, 1));
+            }
+            times.push(t.elapsed().as_secs_f64());
+            pairs = r.pairs.len();
+        }
+        let wall = median(times);
+        let rays = args.rays * sources.len() as u64;
+        println!(
+            "{}: {} pairs, {} rays per source, wall {:.2} s (median of {}), {:.0} rays/s",
+            path.display(),
+            pairs,
+            args.rays,
+            wall,
+            args.repeat.max(1),
+            rays as f64 / wall
+        );
+    }
+    if let Some(mb) = peak_rss_mb() {
+        println!("peak memory: {mb:.0} MB resident");
+    }
+    Ok(())
+}
