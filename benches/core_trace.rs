@@ -4,7 +4,9 @@
 
 use std::time::Instant;
 
-use propsim::cli::bench_trace::{coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, trace_figures};
+use propsim::cli::bench_trace::{
+    coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, trace_figures,
+};
 use propsim::core::{Accel, BuildQuality};
 
 fn main() {

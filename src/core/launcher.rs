@@ -72,6 +72,15 @@ pub trait Propagation: Sync {
         path_m: f32,
         rng: &mut Rng64,
     ) -> Bounce;
+    /// An optional second ray at a surface interaction, called before [`interact`]: the
+    /// payload of a ray that goes on straight through the surface (thin-slab transmission),
+    /// or `None` (the default). The launcher traces it as a branch of the same ray, with the
+    /// same random stream; it counts one interaction like a reflection.
+    ///
+    /// [`interact`]: Propagation::interact
+    fn transmit(&self, _payload: &Self::Payload, _hit: &Hit, _incoming: Vec3) -> Option<Self::Payload> {
+        None
+    }
 }
 
 /// Launch settings.
@@ -101,10 +110,23 @@ pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index
         }
         LaunchPattern::Random => uniform_sphere(Vec2::new(uniform(&mut rng), uniform(&mut rng))),
     };
-    let mut payload = prop.emit(index, dir);
-    let mut ray = Ray::new(launch.origin, dir);
-    let mut path_m = 0.0f32;
-    let mut reflections = 0u32;
+    let payload = prop.emit(index, dir);
+    trace_path(accel, prop, launch, Ray::new(launch.origin, dir), payload, 0.0, 0, &mut rng, accum);
+}
+
+/// Follows one ray (or a transmitted branch of it) from `ray` to its end.
+#[allow(clippy::too_many_arguments)]
+fn trace_path<P: Propagation>(
+    accel: &Accel,
+    prop: &P,
+    launch: &Launch,
+    mut ray: Ray,
+    mut payload: P::Payload,
+    mut path_m: f32,
+    mut reflections: u32,
+    rng: &mut Rng64,
+    accum: &mut P::Accum,
+) {
     loop {
         ray.t_max = (launch.max_path_m - path_m).max(0.0);
         let hit = accel.mesh.closest_hit(&ray);
@@ -115,7 +137,11 @@ pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index
         if reflections >= launch.max_reflections {
             break;
         }
-        match prop.interact(accum, &mut payload, &hit, ray.dir, path_m, &mut rng) {
+        if let Some(through) = prop.transmit(&payload, &hit, ray.dir) {
+            let branch = Ray::spawn(hit.point, hit.normal, ray.dir);
+            trace_path(accel, prop, launch, branch, through, path_m, reflections + 1, rng, accum);
+        }
+        match prop.interact(accum, &mut payload, &hit, ray.dir, path_m, rng) {
             Bounce::Continue(d) => {
                 ray = Ray::spawn(hit.point, hit.normal, d);
                 reflections += 1;
