@@ -27,7 +27,7 @@ pub enum Command {
     Info(info::InfoArgs),
     /// Radio coverage map (coverage.csv, coverage.png, summary.json) and coherent point
     /// receivers, with ITU-R P.2040 materials.
-    Rf(rf::RfArgs),
+    Rf(Box<rf::RfArgs>),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),

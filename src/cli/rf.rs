@@ -30,13 +30,13 @@ pub struct RfArgs {
     /// Scene file (.toml), bare OBJ, or builtin:NAME.
     pub scene: PathBuf,
     /// One transmitter at X,Y,Z instead of the scene's.
-    #[arg(long, value_parser = super::parse_point)]
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
     pub tx: Option<[f32; 3]>,
     /// Carrier frequency, GHz (default: the scene's, else 3.5).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub freq_ghz: Option<f64>,
     /// Transmit power, dBm (default: the scene's, else 30).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub tx_power_dbm: Option<f64>,
     /// Transmit antenna: isotropic or dipole (half-wave, along z for vertical polarisation).
     #[arg(long)]
@@ -45,7 +45,7 @@ pub struct RfArgs {
     #[arg(long)]
     pub polarization: Option<String>,
     /// Height of the coverage plane, m (default: the scene's, else 1.5).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true)]
     pub grid_height: Option<f64>,
     /// Cell size, m (default: the scene's, else 1).
     #[arg(long)]

@@ -41,7 +41,7 @@ impl GridSpec {
         if !height_m.is_finite() {
             return Err(format!("grid height {height_m} m: must be finite"));
         }
-        if !(max[0] > min[0] && max[1] > min[1]) || !min.iter().chain(&max).all(|v| v.is_finite()) {
+        if !(max[0] > min[0] && max[1] > min[1] && min.iter().chain(&max).all(|v| v.is_finite())) {
             return Err(format!(
                 "grid extent ({}, {}) to ({}, {}): max must exceed min in x and y",
                 min[0], min[1], max[0], max[1]

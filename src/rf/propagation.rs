@@ -89,6 +89,9 @@ impl LocalBasis {
     }
 }
 
+/// Reflection coefficients (TE, TM) and, for slabs, transmission coefficients (TE, TM).
+pub type Coefficients = (Complex, Complex, Option<(Complex, Complex)>);
+
 /// How surfaces act on radio waves at one frequency.
 #[derive(Clone, Debug)]
 pub struct SurfacePhysics {
@@ -104,11 +107,7 @@ pub struct SurfacePhysics {
 impl SurfacePhysics {
     /// Reflection coefficients (TE, TM) on `surface` at `cos_theta`, and the transmission
     /// coefficients when walls are slabs.
-    pub fn coefficients(
-        &self,
-        surface: u32,
-        cos_theta: f64,
-    ) -> Option<(Complex, Complex, Option<(Complex, Complex)>)> {
+    pub fn coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
         let eta = (*self.eta.get(surface as usize)?)?;
         Some(match self.slab_thickness_m {
             None => {

@@ -79,6 +79,11 @@ fn mirror(p: DVec3, plane: &Plane) -> DVec3 {
     p - 2.0 * (plane.normal.dot(p) - plane.offset) * plane.normal
 }
 
+/// Legs leaving a reflection point ignore hits closer than this, metres: the exact point and
+/// the f32 triangle disagree by about 1e-7 of the triangle's coordinates (1e-4 m on a
+/// 5 km ground), more than [`Ray::spawn`]'s offset from the point.
+const LEG_START_M: f32 = 2.0e-3;
+
 /// Largest number of plane sequences the search may try per receiver.
 pub const MAX_SEQUENCES: f64 = 2.0e6;
 
@@ -190,10 +195,10 @@ fn path_field(
         let leg = p - from;
         let dist = leg.length();
         let dir = leg / dist;
-        let ray = match from_normal {
-            None => Ray::new(from.as_vec3(), dir.as_vec3()),
-            Some(n) => Ray::spawn(from.as_vec3(), n.as_vec3(), dir.as_vec3()),
-        };
+        let mut ray = Ray::new(from.as_vec3(), dir.as_vec3());
+        if from_normal.is_some() {
+            ray.t_min = LEG_START_M;
+        }
         let hit = accel.mesh.closest_hit(&ray)?;
         let plane = &planes[seq[k]];
         let tol = 1e-3 + 1e-5 * (dist + from.abs().max_element());
@@ -213,15 +218,11 @@ fn path_field(
     if dist == 0.0 {
         return None;
     }
-    let blocked = match from_normal {
-        None => accel.mesh.occluded(&Ray::segment(
-            from.as_vec3(),
-            (leg / dist).as_vec3(),
-            dist as f32 * (1.0 - 1e-6),
-        )),
-        Some(n) => accel.mesh.occluded(&Ray::spawn_to(from.as_vec3(), n.as_vec3(), rx.as_vec3())),
-    };
-    if blocked {
+    let mut last = Ray::segment(from.as_vec3(), (leg / dist).as_vec3(), (dist * (1.0 - 1e-6)) as f32);
+    if from_normal.is_some() {
+        last.t_min = LEG_START_M;
+    }
+    if accel.mesh.occluded(&last) {
         return None;
     }
     length += dist;

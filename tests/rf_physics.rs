@@ -1,0 +1,185 @@
+//! Radio physics against closed-form answers: Friis in free space, the two-ray model over an
+//! ITU-R P.2040 concrete ground (power sum on the coverage grid, exact field at coherent
+//! point receivers).
+
+use glam::{DVec3, Vec3};
+use propsim::core::launcher::{Launch, LaunchPattern, launch};
+use propsim::core::{Accel, BuildQuality, TriangleMesh};
+use propsim::rf::coverage::{Coverage, CoverageAccumulator, GridSpec};
+use propsim::rf::fresnel::{C0, Complex, complex_permittivity, reflection};
+use propsim::rf::propagation::{RadioPropagation, SurfacePhysics};
+use propsim::rf::receivers::{coherent_paths, distinct_planes};
+use propsim::rf::{Antenna, Polarization, free_space_path_loss_db};
+use propsim::scene::itu::itu_lookup;
+
+const F_HZ: f64 = 3.5e9;
+const VERTICAL: Antenna = Antenna::Isotropic { polarization: Polarization::Vertical };
+
+fn lambda() -> f64 {
+    C0 / F_HZ
+}
+
+fn concrete() -> Complex {
+    let (m, ok) = itu_lookup("concrete", 3.5).unwrap();
+    assert!(ok);
+    complex_permittivity(m.relative_permittivity(3.5), m.conductivity_s_per_m(3.5), F_HZ)
+}
+
+/// A square ground of concrete at z = 0, `half` metres each way.
+fn ground(half: f32) -> TriangleMesh {
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("concrete");
+    let (a, b) = (-half, half);
+    mesh.push_quad(Vec3::new(a, a, 0.0), Vec3::new(b, a, 0.0), Vec3::new(b, b, 0.0), Vec3::new(a, b, 0.0), s);
+    mesh
+}
+
+fn run_grid(mesh: &TriangleMesh, tx: DVec3, grid: GridSpec, rays: u64, depth: u32) -> Coverage {
+    let accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+    let physics =
+        SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };
+    let acc = CoverageAccumulator::new(grid);
+    let prop = RadioPropagation { antenna: VERTICAL, physics: &physics, grid: &acc };
+    let l = Launch {
+        origin: tx.as_vec3(),
+        rays,
+        seed: 3,
+        domain: 0,
+        pattern: LaunchPattern::Fibonacci,
+        max_reflections: depth,
+        max_path_m: 1.0e5,
+    };
+    launch(&accel, &prop, &l, &|_| {});
+    acc.finish(rays, lambda())
+}
+
+/// The average of `f(horizontal distance from tx)` over cell `i` (8 x 8 samples).
+fn cell_average(cov: &Coverage, i: usize, tx: DVec3, f: &impl Fn(f64) -> f64) -> f64 {
+    let [cx, cy] = cov.spec.centre(i);
+    let c = cov.spec.cell_m;
+    let mut sum = 0.0;
+    for a in 0..8 {
+        for b in 0..8 {
+            let x = cx + c * ((f64::from(a) + 0.5) / 8.0 - 0.5);
+            let y = cy + c * ((f64::from(b) + 0.5) / 8.0 - 0.5);
+            sum += f((x - tx.x).hypot(y - tx.y));
+        }
+    }
+    sum / 64.0
+}
+
+/// Ratio in dB of the simulated to the expected gain, summed over the cells whose centre
+/// lies at a horizontal distance within `rel` of `d` (an annulus; all cells are reached).
+fn annulus_ratio_db(cov: &Coverage, tx: DVec3, d: f64, rel: f64, expected: impl Fn(f64) -> f64) -> f64 {
+    let (mut sim, mut want, mut n) = (0.0, 0.0, 0);
+    for i in 0..cov.spec.cells() {
+        let [x, y] = cov.spec.centre(i);
+        let r = (x - tx.x).hypot(y - tx.y);
+        if (r - d).abs() <= (rel * d).max(cov.spec.cell_m * 0.5) {
+            sim += cov.path_gain[i];
+            want += cell_average(cov, i, tx, &expected);
+            n += 1;
+        }
+    }
+    assert!(n > 0, "no cells at {d} m");
+    10.0 * (sim / want).log10()
+}
+
+#[test]
+fn free_space_path_loss_matches_design_values() {
+    assert!((free_space_path_loss_db(100.0, 3.5e9) - 83.33).abs() < 0.005);
+    assert!((free_space_path_loss_db(100.0, 2.4e9) - 80.05).abs() < 0.005);
+}
+
+#[test]
+fn free_space_coverage_follows_friis_from_10_to_500_m() {
+    // Transmitter 10 m above the grid plane, nothing else: the map must be Friis,
+    // g = (lambda / 4 pi r)^2 with r the slant distance.
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-500.0, -500.0], [500.0, 500.0], 5.0, 0.0).unwrap();
+    let cov = run_grid(&TriangleMesh::default(), tx, grid, 2_000_000, 0);
+    let friis = |r: f64| {
+        let slant = r.hypot(10.0);
+        10f64.powf(-free_space_path_loss_db(slant, F_HZ) / 10.0)
+    };
+    // The cell straight below: 10 m.
+    let below = cov.spec.cell_of(0.1, 0.1).unwrap();
+    let err = 10.0 * (cov.path_gain[below] / cell_average(&cov, below, tx, &friis)).log10();
+    eprintln!("friis 10 m: {err:+.3} dB");
+    assert!(err.abs() < 0.5, "10 m: {err:.3} dB");
+    for d in [15.0, 25.0, 50.0, 100.0, 200.0, 300.0, 400.0, 495.0] {
+        let err = annulus_ratio_db(&cov, tx, d, 0.01, friis);
+        eprintln!("friis {d} m: {err:+.3} dB");
+        assert!(err.abs() < 0.5, "{d} m: {err:.3} dB");
+    }
+}
+
+/// The two-ray fields at horizontal distance `r` (Tx at `ht`, Rx at `hr`, ground z = 0,
+/// vertical polarisation): the direct and ground-reflected field vectors, each
+/// `(lambda / 4 pi L) e^{-jkL} pol`, with the image source's vertical polarisation and
+/// `R_TM` at the grazing angle (textbook two-ray model, e.g. Rappaport sec. 4.6).
+fn two_ray(r: f64, ht: f64, hr: f64) -> ([Complex; 3], [Complex; 3]) {
+    let k = std::f64::consts::TAU / lambda();
+    let pol = |d: DVec3| (DVec3::Z - d.z * d).normalize();
+    let field = |l: f64, p: DVec3, c: Complex| {
+        let a = Complex::cis(-k * l).scale(lambda() / (4.0 * std::f64::consts::PI * l)) * c;
+        [a.scale(p.x), a.scale(p.y), a.scale(p.z)]
+    };
+    let d1 = DVec3::new(r, 0.0, hr - ht);
+    let d2 = DVec3::new(r, 0.0, hr + ht);
+    let cos_inc = (ht + hr) / d2.length();
+    let (_, r_tm) = reflection(concrete(), cos_inc);
+    (field(d1.length(), pol(d1.normalize()), Complex::ONE), field(d2.length(), pol(d2.normalize()), r_tm))
+}
+
+fn power(v: &[Complex; 3]) -> f64 {
+    v.iter().map(|c| c.norm_sqr()).sum()
+}
+
+#[test]
+fn ground_reflection_grid_matches_two_ray_power_sum() {
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-300.0, -300.0], [300.0, 300.0], 4.0, 1.5).unwrap();
+    let cov = run_grid(&ground(5000.0), tx, grid, 2_000_000, 1);
+    let power_sum = |r: f64| {
+        let (a, b) = two_ray(r, 10.0, 1.5);
+        power(&a) + power(&b)
+    };
+    for d in [10.0, 20.0, 50.0, 100.0, 150.0, 200.0, 250.0, 295.0] {
+        let err = annulus_ratio_db(&cov, tx, d, 0.02, power_sum);
+        eprintln!("two-ray power sum {d} m: {err:+.3} dB");
+        assert!(err.abs() < 1.0, "{d} m: {err:.3} dB");
+    }
+}
+
+#[test]
+fn coherent_receivers_match_the_exact_two_ray_field() {
+    let mesh = ground(5000.0);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let planes = distinct_planes(&mesh);
+    assert_eq!(planes.len(), 1);
+    let physics =
+        SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let mut compared = 0;
+    let mut worst = 0.0f64;
+    for i in 0..200 {
+        let r = 10.0 + 1.45 * f64::from(i);
+        let (a, b) = two_ray(r, 10.0, 1.5);
+        let sum: Vec<Complex> = a.iter().zip(&b).map(|(x, y)| *x + *y).collect();
+        let coherent = sum.iter().map(|c| c.norm_sqr()).sum::<f64>();
+        let incoherent = power(&a) + power(&b);
+        let got = coherent_paths(&accel, &planes, &physics, &VERTICAL, tx, DVec3::new(r, 0.0, 1.5), 2);
+        assert_eq!(got.paths, 2, "{r} m");
+        assert!((10.0 * (got.incoherent_gain / incoherent).log10()).abs() < 0.01);
+        // Away from the nulls (more than 6 dB below the power sum) the field must match.
+        if coherent > incoherent / 4.0 {
+            let err = 10.0 * (got.coherent_gain / coherent).log10();
+            assert!(err.abs() < 0.5, "{r} m: {err:.3} dB");
+            worst = worst.max(err.abs());
+            compared += 1;
+        }
+    }
+    eprintln!("coherent two-ray: {compared} points, worst {worst:.2e} dB");
+    assert!(compared > 100, "{compared}");
+}
