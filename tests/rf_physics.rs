@@ -183,3 +183,50 @@ fn coherent_receivers_match_the_exact_two_ray_field() {
     eprintln!("coherent two-ray: {compared} points, worst {worst:.2e} dB");
     assert!(compared > 100, "{compared}");
 }
+
+#[test]
+fn a_thin_concrete_wall_transmits_the_slab_coefficient() {
+    // A 0.2 m concrete slab in the plane x = 5 between the transmitter and the cells behind
+    // it: on the line y = 0 the field is TM (in the plane of incidence), so the map must be
+    // Friis times |T_TM|^2 of ITU-R P.2040-3's single-layer slab at the ray's angle.
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("concrete");
+    let (a, b) = (-1000.0, 1000.0);
+    mesh.push_quad(Vec3::new(5.0, a, a), Vec3::new(5.0, b, a), Vec3::new(5.0, b, b), Vec3::new(5.0, a, b), s);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-40.0, -0.5], [40.0, 0.5], 1.0, 1.5).unwrap();
+    let map = |slab: Option<f64>| {
+        let physics =
+            SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: slab, wavelength_m: lambda() };
+        let acc = CoverageAccumulator::new(grid);
+        let prop = RadioPropagation { antenna: VERTICAL, physics: &physics, grid: &acc };
+        let l = Launch {
+            origin: tx.as_vec3(),
+            rays: 2_000_000,
+            seed: 5,
+            domain: 0,
+            pattern: LaunchPattern::Fibonacci,
+            max_reflections: 1,
+            max_path_m: 1.0e5,
+        };
+        launch(&accel, &prop, &l, &|_| {});
+        acc.finish(l.rays, lambda())
+    };
+    let opaque = map(None);
+    let slab = map(Some(0.2));
+    for x in [10.5, 15.5, 20.5, 30.5] {
+        let cell = grid.cell_of(x, 0.0).unwrap();
+        assert_eq!(opaque.paths[cell], 0, "an opaque wall hides x = {x}");
+        let d = DVec3::new(x, 0.0, 1.5) - tx;
+        let cos = d.x / d.length();
+        let t = propsim::rf::fresnel::slab(concrete(), cos, 0.2, lambda()).t_tm.norm_sqr();
+        let want = t * 10f64.powf(-free_space_path_loss_db(d.length(), F_HZ) / 10.0);
+        let err = 10.0 * (slab.path_gain[cell] / want).log10();
+        eprintln!("slab transmission x = {x} m: |T|^2 = {:.2} dB, error {err:+.3} dB", 10.0 * t.log10());
+        assert!(err.abs() < 0.5, "x = {x}: {err:.3} dB");
+    }
+    // In front of the wall both see the direct ray and the wall's reflection.
+    let front = grid.cell_of(-20.5, 0.0).unwrap();
+    assert!(slab.paths[front] > 0 && opaque.paths[front] == slab.paths[front]);
+}

@@ -101,13 +101,26 @@ pub struct Launch {
 
 /// Traces one ray to its end, depositing into `accum`.
 pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index: u64, accum: &mut P::Accum) {
+    trace_ray_rotated(accel, prop, launch, lattice_rotation(launch), index, accum);
+}
+
+/// The random rotation about z of a launch's Fibonacci lattice, shared by all its rays.
+fn lattice_rotation(launch: &Launch) -> f32 {
+    uniform(&mut stream(launch.seed, launch.domain, u64::MAX))
+}
+
+/// [`trace_ray`] with the lattice rotation computed once per launch.
+fn trace_ray_rotated<P: Propagation>(
+    accel: &Accel,
+    prop: &P,
+    launch: &Launch,
+    offset: f32,
+    index: u64,
+    accum: &mut P::Accum,
+) {
     let mut rng = stream(launch.seed, launch.domain, index);
     let dir = match launch.pattern {
-        LaunchPattern::Fibonacci => {
-            // One random rotation about z per launch, shared by all rays.
-            let offset = uniform(&mut stream(launch.seed, launch.domain, u64::MAX));
-            fibonacci_sphere(index as usize, launch.rays as usize, offset)
-        }
+        LaunchPattern::Fibonacci => fibonacci_sphere(index as usize, launch.rays as usize, offset),
         LaunchPattern::Random => uniform_sphere(Vec2::new(uniform(&mut rng), uniform(&mut rng))),
     };
     let payload = prop.emit(index, dir);
@@ -170,6 +183,7 @@ pub fn launch_range<P: Propagation>(
     blocks: std::ops::Range<u64>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
+    let offset = lattice_rotation(launch);
     let per_block: Vec<P::Accum> = blocks
         .into_par_iter()
         .map(|b| {
@@ -177,7 +191,7 @@ pub fn launch_range<P: Propagation>(
             let start = b * LAUNCH_BLOCK as u64;
             let end = (start + LAUNCH_BLOCK as u64).min(launch.rays);
             for i in start..end {
-                trace_ray(accel, prop, launch, i, &mut acc);
+                trace_ray_rotated(accel, prop, launch, offset, i, &mut acc);
             }
             progress(end - start);
             acc

@@ -56,7 +56,8 @@ impl Complex {
 
     /// The principal square root (non-negative real part).
     pub fn sqrt(self) -> Self {
-        let r = self.abs();
+        // |z| without hypot's overflow guard (2x faster; radio values are far from overflow).
+        let r = self.norm_sqr().sqrt();
         if r == 0.0 {
             return Self::ZERO;
         }

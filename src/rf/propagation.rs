@@ -63,9 +63,11 @@ pub struct LocalBasis {
 
 impl LocalBasis {
     /// For the unit incoming direction `k` and a unit normal `n` (either side).
+    #[inline]
     pub fn new(k: DVec3, n: DVec3) -> Self {
         let kn = k.dot(n);
-        let reflected = (k - 2.0 * kn * n).normalize();
+        // Unit when k and n are: no renormalisation needed.
+        let reflected = k - 2.0 * kn * n;
         let mut s = k.cross(n);
         if s.length_squared() < 1e-20 {
             // Normal incidence: any direction perpendicular to k will do.
@@ -142,7 +144,7 @@ impl Propagation for RadioPropagation<'_> {
     fn merge(&self, _: &mut (), _: ()) {}
 
     fn emit(&self, _ray_index: u64, dir: Vec3) -> FieldVec {
-        let d = dir.as_dvec3().normalize();
+        let d = dir.as_dvec3();
         FieldVec::real(self.antenna.polarization(d) * self.antenna.gain(d).sqrt())
     }
 
@@ -164,7 +166,7 @@ impl Propagation for RadioPropagation<'_> {
         _: f32,
         _: &mut Rng64,
     ) -> Bounce {
-        let basis = LocalBasis::new(incoming.as_dvec3().normalize(), hit.normal.as_dvec3());
+        let basis = LocalBasis::new(incoming.as_dvec3(), hit.normal.as_dvec3());
         let Some((r_te, r_tm, _)) = self.physics.coefficients(hit.surface, basis.cos_theta) else {
             return Bounce::Stop;
         };
@@ -172,7 +174,7 @@ impl Propagation for RadioPropagation<'_> {
         if payload.power() < MIN_POWER {
             return Bounce::Stop;
         }
-        Bounce::Continue(basis.reflected.as_vec3().normalize())
+        Bounce::Continue(basis.reflected.as_vec3())
     }
 
     fn transmit(&self, payload: &FieldVec, hit: &Hit, incoming: Vec3) -> Option<FieldVec> {
