@@ -230,3 +230,32 @@ fn a_thin_concrete_wall_transmits_the_slab_coefficient() {
     let front = grid.cell_of(-20.5, 0.0).unwrap();
     assert!(slab.paths[front] > 0 && opaque.paths[front] == slab.paths[front]);
 }
+
+/// The README's accuracy figure: per-cell error of a free-space map (street canyon size,
+/// 1 m cells, Tx 8.5 m above the plane) against the cell averages of Friis, by ray count.
+/// `cargo test --release --test rf_physics -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn free_space_map_error_by_ray_count() {
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-90.0, -60.0], [90.0, 60.0], 1.0, 1.5).unwrap();
+    let friis = |r: f64| 10f64.powf(-free_space_path_loss_db(r.hypot(8.5), F_HZ) / 10.0);
+    for rays in [2_000_000u64, 10_000_000, 100_000_000] {
+        let cov = run_grid(&TriangleMesh::default(), tx, grid, rays, 0);
+        let (mut sq, mut abs, mut worst, mut n) = (0.0, 0.0, 0.0f64, 0);
+        for i in 0..grid.cells() {
+            let want = cell_average(&cov, i, tx, &friis);
+            let e =
+                if cov.path_gain[i] > 0.0 { 10.0 * (cov.path_gain[i] / want).log10() } else { f64::INFINITY };
+            sq += e * e;
+            abs += e.abs();
+            worst = worst.max(e.abs());
+            n += 1;
+        }
+        let rms = (sq / f64::from(n)).sqrt();
+        eprintln!(
+            "{rays} rays: mean |error| {:.3} dB, rms {rms:.3} dB, max {worst:.3} dB",
+            abs / f64::from(n)
+        );
+    }
+}

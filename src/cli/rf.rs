@@ -162,12 +162,7 @@ pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     let t0 = &config.transmitters[0];
     let title = format!(
         "{} | {} at {:.3} GHz | {} rays, depth {} | h = {} m",
-        world.scene.path.file_name().map_or(scene_name.clone(), |f| f.to_string_lossy().into_owned()),
-        t0.name,
-        t0.freq_ghz,
-        config.rays,
-        config.max_depth,
-        config.grid.height_m
+        scene_name, t0.name, t0.freq_ghz, config.rays, config.max_depth, config.grid.height_m
     );
     write_coverage_png(
         &png,
@@ -223,6 +218,18 @@ pub struct BenchRfArgs {
     pub repeat: usize,
 }
 
+/// CPU time (user + system) of this process so far, seconds, from /proc (Linux); `None`
+/// elsewhere.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    // USER_HZ is 100 on every Linux platform Rust supports.
+    Some(ticks / 100.0)
+}
+
 fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
     v[v.len() / 2]
@@ -243,11 +250,16 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
     let mut config = RfConfig::from_scene(&world, &overrides).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
     config.transmitters.truncate(1);
     let mut walls = Vec::new();
+    let mut cpus = Vec::new();
     let mut reached = 0;
     for _ in 0..args.repeat {
         let t0 = Instant::now();
+        let c0 = process_cpu_seconds();
         let r = simulate(&world, &config, &|_| {})?;
         walls.push(t0.elapsed().as_secs_f64());
+        if let (Some(a), Some(b)) = (c0, process_cpu_seconds()) {
+            cpus.push(b - a);
+        }
         reached = r.coverage.paths.iter().filter(|&&p| p > 0).count();
     }
     let wall = median(walls.clone());
@@ -268,5 +280,14 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         config.rays as f64 / wall / 1e6,
         reached
     );
+    if !cpus.is_empty() {
+        let cpu = median(cpus);
+        println!(
+            "cpu time {cpu:.2} s (median): {:.2} Mrays per CPU-second; {:.0} % of the threads' time \
+             was ours (below 100 % when other processes share the cores)",
+            config.rays as f64 / cpu / 1e6,
+            100.0 * cpu / (wall * rayon::current_num_threads() as f64)
+        );
+    }
     Ok(())
 }

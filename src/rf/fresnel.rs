@@ -203,8 +203,9 @@ mod tests {
             let (te, tm) = reflection(pec, c);
             assert!((te.abs() - 1.0).abs() < 1e-6 && (tm.abs() - 1.0).abs() < 1e-6, "{c}");
             // ITU metal (sigma = 1e7 S/m) is a near-perfect conductor.
-            let (te, tm) = reflection(metal, c.max(0.01));
-            assert!(te.abs() > 0.999 && tm.abs() > 0.99, "{c}: {} {}", te.abs(), tm.abs());
+            // (TM dips towards grazing incidence: the pseudo-Brewster angle of a conductor.)
+            let (te, tm) = reflection(metal, c.max(0.1));
+            assert!(te.abs() > 0.999 && tm.abs() > 0.998, "{c}: {} {}", te.abs(), tm.abs());
         }
         let (te, tm) = reflection(pec, 1.0);
         assert!((te + Complex::ONE).abs() < 1e-6 && (tm - Complex::ONE).abs() < 1e-6);

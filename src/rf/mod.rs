@@ -7,7 +7,7 @@
 //! use propsim::rf::{RfConfig, simulate};
 //! use propsim::scene::{LoadOptions, World, load};
 //! let world = World::build(load("rooms/street_canyon/scene.toml".as_ref(), &LoadOptions::default())?);
-//! let config = RfConfig::from_scene(&world, &Default::default())?;
+//! let config = RfConfig::from_scene(&world, &Default::default()).map_err(anyhow::Error::msg)?;
 //! let result = simulate(&world, &config, &|_| {})?;
 //! println!("{} cells reached", result.coverage.paths.iter().filter(|&&p| p > 0).count());
 //! # Ok::<(), anyhow::Error>(())
