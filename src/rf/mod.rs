@@ -89,10 +89,24 @@ pub fn surface_permittivities(
     Ok(out)
 }
 
+/// The radio constants a surface was simulated with.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SurfaceRadio {
+    pub surface: String,
+    pub material: Option<String>,
+    /// Real and imaginary parts of the complex relative permittivity at the carrier.
+    pub eta_re: f64,
+    pub eta_im: f64,
+    /// |Gamma| at normal incidence (half-space).
+    pub normal_incidence_reflection: f64,
+}
+
 /// One transmitter's share of a result.
 #[derive(Clone, Debug)]
 pub struct TransmitterResult {
     pub name: String,
+    /// The surfaces' radio constants at this transmitter's frequency (surfaces in use only).
+    pub surfaces: Vec<SurfaceRadio>,
     /// Coherent paths at each receiver of the config, in order.
     pub receivers: Vec<PathSum>,
     /// Reflection order the receiver search used (may be below `max_depth` in large scenes).
@@ -172,8 +186,24 @@ pub fn simulate(
                 )
             })
             .collect();
+        let surfaces = world
+            .scene
+            .surfaces
+            .iter()
+            .zip(&physics.eta)
+            .filter_map(|(s, eta)| {
+                eta.map(|e| SurfaceRadio {
+                    surface: s.name.clone(),
+                    material: s.material.as_ref().map(|m| m.name.clone()),
+                    eta_re: e.re,
+                    eta_im: e.im,
+                    normal_incidence_reflection: fresnel::reflection(e, 1.0).0.abs(),
+                })
+            })
+            .collect();
         transmitters.push(TransmitterResult {
             name: tx.name.clone(),
+            surfaces,
             receivers,
             receiver_depth,
             trace_seconds,

@@ -66,6 +66,14 @@ pub struct ReceiverSummary {
     pub grid_path_gain_db: Option<f64>,
 }
 
+/// The radio constants used for one transmitter.
+#[derive(Serialize, Debug)]
+pub struct TransmitterSurfaces {
+    pub transmitter: String,
+    pub freq_ghz: f64,
+    pub surfaces: Vec<super::SurfaceRadio>,
+}
+
 /// Statistics of the map.
 #[derive(Serialize, Debug)]
 pub struct MapStats {
@@ -88,6 +96,8 @@ pub struct Summary<'a> {
     pub seconds: f64,
     pub rays_per_second: f64,
     pub map: MapStats,
+    /// Per transmitter: the surfaces' complex permittivities at its carrier.
+    pub surfaces: Vec<TransmitterSurfaces>,
     pub receivers: Vec<ReceiverSummary>,
     pub outputs: Vec<String>,
 }
@@ -146,6 +156,16 @@ pub fn summary<'a>(
             0.0
         },
         map,
+        surfaces: config
+            .transmitters
+            .iter()
+            .zip(&result.transmitters)
+            .map(|(t, r)| TransmitterSurfaces {
+                transmitter: t.name.clone(),
+                freq_ghz: t.freq_ghz,
+                surfaces: r.surfaces.clone(),
+            })
+            .collect(),
         receivers,
         outputs,
     }
