@@ -123,6 +123,8 @@ fn materials_outside_their_itu_range_need_extrapolate() {
 fn bad_inputs_are_one_line_errors() {
     assert_clean_error(&["rf", CANYON, "--cell-m", "0"], &["cell size", "positive"]);
     assert_clean_error(&["rf", CANYON, "--rays", "0"], &["--rays 0"]);
+    assert_clean_error(&["rf", CANYON, "--rays", "100000000000"], &["--rays 100000000000", "between 1 and"]);
+    assert_clean_error(&["rf", CANYON, "--cell-m", "0.001"], &["too many", "larger cell"]);
     assert_clean_error(&["rf", CANYON, "--freq-ghz", "-1"], &["TX1", "positive"]);
     assert_usage_error(&["rf", CANYON, "--tx", "1,2"], &["--tx", "X,Y,Z"]);
     assert_usage_error(&["rf", CANYON, "--rays", "many"], &["--rays"]);

@@ -18,6 +18,8 @@ pub const DEFAULT_GRID_HEIGHT_M: f64 = 1.5;
 pub const DEFAULT_CELL_M: f64 = 1.0;
 pub const DEFAULT_RAYS: u64 = 1_000_000;
 pub const DEFAULT_MAX_DEPTH: u32 = 3;
+/// Most rays per transmitter.
+pub const MAX_RAYS: u64 = 10_000_000_000;
 /// Wall thickness of the thin-slab transmission model when none is given, metres.
 pub const DEFAULT_WALL_THICKNESS_M: f64 = 0.2;
 /// Longest ray path, metres (rays leaving an open scene end here).
@@ -169,8 +171,9 @@ impl RfConfig {
             .unwrap_or([from_bounds(0, true), from_bounds(1, true)]);
         let grid = GridSpec::covering(min, max, cell, height)?;
         let rays = o.rays.or(rf.rays).unwrap_or(DEFAULT_RAYS);
-        if rays == 0 || rays > 1 << 40 {
-            return Err(format!("--rays {rays}: must be between 1 and 2^40"));
+        // Bounded so that no cell's 32.32 fixed-point sum can overflow.
+        if rays == 0 || rays > MAX_RAYS {
+            return Err(format!("--rays {rays}: must be between 1 and {MAX_RAYS}"));
         }
         let max_depth = o.max_depth.or(rf.max_depth).unwrap_or(DEFAULT_MAX_DEPTH);
         if max_depth > 64 {

@@ -49,7 +49,7 @@ impl GridSpec {
         }
         let nx = ((max[0] - min[0]) / cell_m - 1e-9).ceil().max(1.0);
         let ny = ((max[1] - min[1]) / cell_m - 1e-9).ceil().max(1.0);
-        if nx * ny > 1.0e8 {
+        if nx * ny > 2.0e7 {
             return Err(format!("{nx} x {ny} cells is too many: use a larger cell size"));
         }
         Ok(Self { min_m: min, cell_m, nx: nx as usize, ny: ny as usize, height_m })
