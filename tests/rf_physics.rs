@@ -164,8 +164,16 @@ fn a_dipole_map_is_friis_times_the_dipole_gain() {
 /// `(lambda / 4 pi L) e^{-jkL} pol`, with the image source's vertical polarisation and
 /// `R_TM` at the grazing angle (textbook two-ray model, e.g. Rappaport sec. 4.6).
 fn two_ray(r: f64, ht: f64, hr: f64) -> ([Complex; 3], [Complex; 3]) {
+    two_ray_pol(r, ht, hr, Polarization::Vertical)
+}
+
+/// [`two_ray`] for either polarisation: horizontal is `d x z` on both paths with `R_TE`.
+fn two_ray_pol(r: f64, ht: f64, hr: f64, polarization: Polarization) -> ([Complex; 3], [Complex; 3]) {
     let k = std::f64::consts::TAU / lambda();
-    let pol = |d: DVec3| (DVec3::Z - d.z * d).normalize();
+    let pol = |d: DVec3| match polarization {
+        Polarization::Vertical => (DVec3::Z - d.z * d).normalize(),
+        Polarization::Horizontal => d.cross(DVec3::Z).normalize(),
+    };
     let field = |l: f64, p: DVec3, c: Complex| {
         let a = Complex::cis(-k * l).scale(lambda() / (4.0 * std::f64::consts::PI * l)) * c;
         [a.scale(p.x), a.scale(p.y), a.scale(p.z)]
@@ -173,8 +181,9 @@ fn two_ray(r: f64, ht: f64, hr: f64) -> ([Complex; 3], [Complex; 3]) {
     let d1 = DVec3::new(r, 0.0, hr - ht);
     let d2 = DVec3::new(r, 0.0, hr + ht);
     let cos_inc = (ht + hr) / d2.length();
-    let (_, r_tm) = reflection(concrete(), cos_inc);
-    (field(d1.length(), pol(d1.normalize()), Complex::ONE), field(d2.length(), pol(d2.normalize()), r_tm))
+    let (r_te, r_tm) = reflection(concrete(), cos_inc);
+    let gamma = if polarization == Polarization::Vertical { r_tm } else { r_te };
+    (field(d1.length(), pol(d1.normalize()), Complex::ONE), field(d2.length(), pol(d2.normalize()), gamma))
 }
 
 fn power(v: &[Complex; 3]) -> f64 {
@@ -206,27 +215,30 @@ fn coherent_receivers_match_the_exact_two_ray_field() {
     let physics =
         SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };
     let tx = DVec3::new(0.0, 0.0, 10.0);
-    let mut compared = 0;
-    let mut worst = 0.0f64;
-    for i in 0..200 {
-        let r = 10.0 + 1.45 * f64::from(i);
-        let (a, b) = two_ray(r, 10.0, 1.5);
-        let sum: Vec<Complex> = a.iter().zip(&b).map(|(x, y)| *x + *y).collect();
-        let coherent = sum.iter().map(|c| c.norm_sqr()).sum::<f64>();
-        let incoherent = power(&a) + power(&b);
-        let got = coherent_paths(&accel, &planes, &physics, &VERTICAL, tx, DVec3::new(r, 0.0, 1.5), 2);
-        assert_eq!(got.paths, 2, "{r} m");
-        assert!((10.0 * (got.incoherent_gain / incoherent).log10()).abs() < 0.01);
-        // Away from the nulls (more than 6 dB below the power sum) the field must match.
-        if coherent > incoherent / 4.0 {
-            let err = 10.0 * (got.coherent_gain / coherent).log10();
-            assert!(err.abs() < 0.5, "{r} m: {err:.3} dB");
-            worst = worst.max(err.abs());
-            compared += 1;
+    for polarization in [Polarization::Vertical, Polarization::Horizontal] {
+        let antenna = Antenna::Isotropic { polarization };
+        let mut compared = 0;
+        let mut worst = 0.0f64;
+        for i in 0..200 {
+            let r = 10.0 + 1.45 * f64::from(i);
+            let (a, b) = two_ray_pol(r, 10.0, 1.5, polarization);
+            let sum: Vec<Complex> = a.iter().zip(&b).map(|(x, y)| *x + *y).collect();
+            let coherent = sum.iter().map(|c| c.norm_sqr()).sum::<f64>();
+            let incoherent = power(&a) + power(&b);
+            let got = coherent_paths(&accel, &planes, &physics, &antenna, tx, DVec3::new(r, 0.0, 1.5), 2);
+            assert_eq!(got.paths, 2, "{r} m");
+            assert!((10.0 * (got.incoherent_gain / incoherent).log10()).abs() < 0.01);
+            // Away from the nulls (more than 6 dB below the power sum) the field must match.
+            if coherent > incoherent / 4.0 {
+                let err = 10.0 * (got.coherent_gain / coherent).log10();
+                assert!(err.abs() < 0.5, "{r} m: {err:.3} dB");
+                worst = worst.max(err.abs());
+                compared += 1;
+            }
         }
+        eprintln!("coherent two-ray {polarization:?}: {compared} points, worst {worst:.2e} dB");
+        assert!(compared > 100, "{compared}");
     }
-    eprintln!("coherent two-ray: {compared} points, worst {worst:.2e} dB");
-    assert!(compared > 100, "{compared}");
 }
 
 #[test]
