@@ -136,6 +136,7 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
     })
 }
 
+/// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and summary.json.
 pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     let world = load_world(&args.scene, &args.materials)?;
     let scene_name = args.scene.display().to_string();

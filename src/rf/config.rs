@@ -16,7 +16,9 @@ pub const DEFAULT_POWER_DBM: f64 = 30.0;
 pub const DEFAULT_GRID_HEIGHT_M: f64 = 1.5;
 /// Cell size when none is given, metres.
 pub const DEFAULT_CELL_M: f64 = 1.0;
+/// Rays per transmitter when none are given.
 pub const DEFAULT_RAYS: u64 = 1_000_000;
+/// Interactions per ray when none are given.
 pub const DEFAULT_MAX_DEPTH: u32 = 3;
 /// Most rays per transmitter.
 pub const MAX_RAYS: u64 = 10_000_000_000;

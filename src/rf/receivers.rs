@@ -13,7 +13,7 @@
 
 use std::collections::BTreeMap;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 
 use super::antenna::Antenna;
 use super::fresnel::Complex;
@@ -190,13 +190,13 @@ fn path_field(
     let mut e = FieldVec::real(antenna.polarization(d0) * antenna.gain(d0).sqrt());
     let mut length = 0.0;
     let mut from = tx;
-    let mut from_normal: Option<DVec3> = None;
+    let mut on_surface = false;
     for (k, &p) in points.iter().enumerate() {
         let leg = p - from;
         let dist = leg.length();
         let dir = leg / dist;
         let mut ray = Ray::new(from.as_vec3(), dir.as_vec3());
-        if from_normal.is_some() {
+        if on_surface {
             ray.t_min = LEG_START_M;
         }
         let hit = accel.mesh.closest_hit(&ray)?;
@@ -211,7 +211,7 @@ fn path_field(
         e = basis.reflect(&e, r_te, r_tm);
         length += dist;
         from = p;
-        from_normal = Some(plane.normal);
+        on_surface = true;
     }
     let leg = rx - from;
     let dist = leg.length();
@@ -219,7 +219,7 @@ fn path_field(
         return None;
     }
     let mut last = Ray::segment(from.as_vec3(), (leg / dist).as_vec3(), (dist * (1.0 - 1e-6)) as f32);
-    if from_normal.is_some() {
+    if on_surface {
         last.t_min = LEG_START_M;
     }
     if accel.mesh.occluded(&last) {
@@ -230,9 +230,4 @@ fn path_field(
     let k = std::f64::consts::TAU / lambda;
     let amplitude = lambda / (4.0 * std::f64::consts::PI * length);
     Some(e.scale(Complex::cis(-k * length).scale(amplitude)))
-}
-
-/// Unit direction helper for callers holding f32 points.
-pub fn dvec(p: [f32; 3]) -> DVec3 {
-    Vec3::from(p).as_dvec3()
 }
