@@ -137,6 +137,10 @@ fn bad_inputs_are_one_line_errors() {
         &["diagonal", "vertical or horizontal"],
     );
     assert_clean_error(&["rf", CANYON, "--max-depth", "1000"], &["--max-depth"]);
+    assert_clean_error(
+        &["rf", CANYON, "--antenna", "dipole", "--orientation", "0,0,0"],
+        &["TX1", "not a direction"],
+    );
     assert_clean_error(&["rf", CANYON, "--grid-min", "10,10", "--grid-max", "0,0"], &["max must exceed min"]);
     assert_clean_error(&["rf", "builtin:bras_cr2"], &["no transmitter", "--tx"]);
     assert_clean_error(

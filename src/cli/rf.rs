@@ -44,6 +44,9 @@ pub struct RfArgs {
     /// vertical or horizontal.
     #[arg(long)]
     pub polarization: Option<String>,
+    /// Dipole axis X,Y,Z (default: z for vertical, x for horizontal polarisation).
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub orientation: Option<[f32; 3]>,
     /// Height of the coverage plane, m (default: the scene's, else 1.5).
     #[arg(long, allow_hyphen_values = true)]
     pub grid_height: Option<f64>,
@@ -98,6 +101,7 @@ impl RfArgs {
             tx_power_dbm: self.tx_power_dbm,
             antenna: self.antenna.clone(),
             polarization: self.polarization.clone(),
+            orientation: self.orientation,
             grid_height_m: self.grid_height,
             cell_m: self.cell_m,
             grid_min: self.grid_min,

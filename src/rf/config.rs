@@ -47,6 +47,8 @@ pub struct Overrides {
     /// "isotropic" or "dipole".
     pub antenna: Option<String>,
     pub polarization: Option<String>,
+    /// Dipole axis.
+    pub orientation: Option<[f32; 3]>,
     pub grid_height_m: Option<f64>,
     pub cell_m: Option<f64>,
     pub grid_min: Option<[f64; 2]>,
@@ -123,7 +125,12 @@ impl RfConfig {
                 position: glam::Vec3::from(p).as_dvec3(),
                 freq_ghz,
                 power_dbm: o.tx_power_dbm.unwrap_or(DEFAULT_POWER_DBM),
-                antenna: antenna_from(o.antenna.as_deref(), o.polarization.as_deref(), None, "--tx")?,
+                antenna: antenna_from(
+                    o.antenna.as_deref(),
+                    o.polarization.as_deref(),
+                    o.orientation,
+                    "--tx",
+                )?,
             });
         } else {
             for t in &rf.transmitters {
@@ -137,7 +144,7 @@ impl RfConfig {
                     position: glam::Vec3::from(t.position).as_dvec3(),
                     freq_ghz,
                     power_dbm: o.tx_power_dbm.or(t.power_dbm).unwrap_or(DEFAULT_POWER_DBM),
-                    antenna: antenna_from(kind, pol, t.orientation, &who)?,
+                    antenna: antenna_from(kind, pol, o.orientation.or(t.orientation), &who)?,
                 });
             }
         }
