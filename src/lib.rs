@@ -7,4 +7,5 @@ pub mod cli;
 pub mod core;
 pub mod io;
 pub mod render;
+pub mod rf;
 pub mod scene;

@@ -8,6 +8,7 @@ pub mod bench_trace;
 pub mod info;
 pub mod progress;
 pub mod render;
+pub mod rf;
 
 use std::path::PathBuf;
 
@@ -34,6 +35,9 @@ pub enum Command {
     Acoustic(acoustic::AcousticArgs),
     /// Render an image (PNG or EXR) of a scene with a chosen integrator.
     Render(render::RenderArgs),
+    /// Radio coverage map (coverage.csv, coverage.png, summary.json) and coherent point
+    /// receivers, with ITU-R P.2040 materials.
+    Rf(Box<rf::RfArgs>),
     /// Benchmarks.
     #[command(subcommand)]
     Bench(BenchCommand),
@@ -49,6 +53,8 @@ pub enum BenchCommand {
     Render(bench_render::BenchRenderArgs),
     /// Time the whole acoustic job (shoebox and BRAS CR2 by default): wall time and rays/s.
     Acoustic(bench_acoustic::BenchAcousticArgs),
+    /// Radio coverage map speed: wall time and rays/s (street canyon, 1 m cells, depth 3).
+    Rf(rf::BenchRfArgs),
 }
 
 /// Runs the command line; the error, if any, is for `main` to print on one line.
@@ -64,6 +70,8 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
         Command::Bench(BenchCommand::Acoustic(args)) => bench_acoustic::run(&args),
         Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
+        Command::Rf(args) => rf::run(&args),
+        Command::Bench(BenchCommand::Rf(args)) => rf::bench(&args),
     }
 }
 

@@ -156,7 +156,39 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        self.closest_slot(ray).map(|(slot, t)| self.make_hit(slot, t, ray))
+        if self.tris.is_empty() {
+            return None;
+        }
+        // As `closest_slot`, keeping the barycentrics of the closest hit so far (obvhs only
+        // records a candidate that is strictly closer than the current best, as here).
+        let mut rh = RayHit::none();
+        let mut best_uv = Vec2::ZERO;
+        let tris = &self.tris;
+        let shear = RayShear::new(ray.origin, ray.dir);
+        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
+            match tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
+                Some((t, uv)) if t < r.tmax => {
+                    best_uv = uv;
+                    t
+                }
+                _ => f32::INFINITY,
+            }
+        });
+        if !hit {
+            return None;
+        }
+        let slot = rh.primitive_id as usize;
+        let normal = tris[slot].normal();
+        Some(Hit {
+            t: rh.t,
+            point: ray.at(rh.t),
+            normal,
+            barycentric: best_uv,
+            primitive: self.mesh_index[slot],
+            kind: PrimitiveKind::Triangle,
+            surface: self.surface[slot],
+            front_face: normal.dot(ray.dir) < 0.0,
+        })
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].

@@ -74,6 +74,15 @@ pub trait Propagation: Sync {
         path_m: f32,
         rng: &mut Rng64,
     ) -> Bounce;
+    /// An optional second ray at a surface interaction, called before [`interact`]: the
+    /// payload of a ray that goes on straight through the surface (thin-slab transmission),
+    /// or `None` (the default). The launcher traces it as a branch of the same ray, with the
+    /// same random stream; it counts one interaction like a reflection.
+    ///
+    /// [`interact`]: Propagation::interact
+    fn transmit(&self, _payload: &Self::Payload, _hit: &Hit, _incoming: Vec3) -> Option<Self::Payload> {
+        None
+    }
 }
 
 /// Launch settings.
@@ -94,20 +103,46 @@ pub struct Launch {
 
 /// Traces one ray to its end, depositing into `accum`.
 pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index: u64, accum: &mut P::Accum) {
+    trace_ray_rotated(accel, prop, launch, lattice_rotation(launch), index, accum);
+}
+
+/// The random rotation about z of a launch's Fibonacci lattice, shared by all its rays.
+fn lattice_rotation(launch: &Launch) -> f32 {
+    uniform(&mut stream(launch.seed, launch.domain, u64::MAX))
+}
+
+/// [`trace_ray`] with the lattice rotation computed once per launch.
+fn trace_ray_rotated<P: Propagation>(
+    accel: &Accel,
+    prop: &P,
+    launch: &Launch,
+    offset: f32,
+    index: u64,
+    accum: &mut P::Accum,
+) {
     let mut rng = stream(launch.seed, launch.domain, index);
     let dir = match launch.pattern {
-        LaunchPattern::Fibonacci => {
-            // One random rotation about z per launch, shared by all rays.
-            let offset = uniform(&mut stream(launch.seed, launch.domain, u64::MAX));
-            fibonacci_sphere(index as usize, launch.rays as usize, offset)
-        }
+        LaunchPattern::Fibonacci => fibonacci_sphere(index as usize, launch.rays as usize, offset),
         LaunchPattern::Random => uniform_sphere(Vec2::new(uniform(&mut rng), uniform(&mut rng))),
         LaunchPattern::Fixed(d) => d,
     };
-    let mut payload = prop.emit(index, dir);
-    let mut ray = Ray::new(launch.origin, dir);
-    let mut path_m = 0.0f32;
-    let mut reflections = 0u32;
+    let payload = prop.emit(index, dir);
+    trace_path(accel, prop, launch, Ray::new(launch.origin, dir), payload, 0.0, 0, &mut rng, accum);
+}
+
+/// Follows one ray (or a transmitted branch of it) from `ray` to its end.
+#[allow(clippy::too_many_arguments)]
+fn trace_path<P: Propagation>(
+    accel: &Accel,
+    prop: &P,
+    launch: &Launch,
+    mut ray: Ray,
+    mut payload: P::Payload,
+    mut path_m: f32,
+    mut reflections: u32,
+    rng: &mut Rng64,
+    accum: &mut P::Accum,
+) {
     loop {
         ray.t_max = (launch.max_path_m - path_m).max(0.0);
         let hit = accel.mesh.closest_hit(&ray);
@@ -118,7 +153,11 @@ pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index
         if reflections >= launch.max_reflections {
             break;
         }
-        match prop.interact(accum, &mut payload, &hit, ray.dir, path_m, &mut rng) {
+        if let Some(through) = prop.transmit(&payload, &hit, ray.dir) {
+            let branch = Ray::spawn(hit.point, hit.normal, ray.dir);
+            trace_path(accel, prop, launch, branch, through, path_m, reflections + 1, rng, accum);
+        }
+        match prop.interact(accum, &mut payload, &hit, ray.dir, path_m, rng) {
             Bounce::Continue(d) => {
                 ray = Ray::spawn(hit.point, hit.normal, d);
                 reflections += 1;
@@ -150,6 +189,7 @@ pub fn launch_range<P: Propagation>(
     // Blocks run in parallel in groups; each group's results are merged in block order before
     // the next group starts, which bounds memory to a group's accumulators.
     let group = (rayon::current_num_threads() * 4).max(1) as u64;
+    let offset = lattice_rotation(launch);
     let mut total = prop.new_accum();
     let mut start = blocks.start;
     while start < blocks.end {
@@ -161,7 +201,7 @@ pub fn launch_range<P: Propagation>(
                 let first = b * LAUNCH_BLOCK as u64;
                 let last = (first + LAUNCH_BLOCK as u64).min(launch.rays);
                 for i in first..last {
-                    trace_ray(accel, prop, launch, i, &mut acc);
+                    trace_ray_rotated(accel, prop, launch, offset, i, &mut acc);
                 }
                 progress(last - first);
                 acc

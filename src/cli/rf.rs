@@ -1,0 +1,288 @@
+//! `propsim rf SCENE`: a radio coverage map (CSV, PNG, JSON summary) and coherent point
+//! receivers; `propsim bench rf`: the ray rate on the street canyon.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Context as _;
+use clap::Args;
+
+use crate::rf::output::{summary, write_coverage_csv, write_summary_json};
+use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
+use crate::rf::{Overrides, RfConfig, simulate};
+use crate::scene::{self, LoadOptions, World};
+
+fn parse_xy(s: &str) -> Result<[f64; 2], String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("\"{s}\": expected X,Y"))?;
+    match v[..] {
+        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
+        _ => Err(format!("\"{s}\": expected two finite numbers X,Y")),
+    }
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct RfArgs {
+    /// Scene file (.toml), bare OBJ, or builtin:NAME.
+    pub scene: PathBuf,
+    /// One transmitter at X,Y,Z instead of the scene's.
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub tx: Option<[f32; 3]>,
+    /// Carrier frequency, GHz (default: the scene's, else 3.5).
+    #[arg(long, allow_hyphen_values = true)]
+    pub freq_ghz: Option<f64>,
+    /// Transmit power, dBm (default: the scene's, else 30).
+    #[arg(long, allow_hyphen_values = true)]
+    pub tx_power_dbm: Option<f64>,
+    /// Transmit antenna: isotropic or dipole (half-wave, along z for vertical polarisation).
+    #[arg(long)]
+    pub antenna: Option<String>,
+    /// vertical or horizontal.
+    #[arg(long)]
+    pub polarization: Option<String>,
+    /// Dipole axis X,Y,Z (default: z for vertical, x for horizontal polarisation).
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub orientation: Option<[f32; 3]>,
+    /// Height of the coverage plane, m (default: the scene's, else 1.5).
+    #[arg(long, allow_hyphen_values = true)]
+    pub grid_height: Option<f64>,
+    /// Cell size, m (default: the scene's, else 1).
+    #[arg(long)]
+    pub cell_m: Option<f64>,
+    /// Grid corner X,Y (default: the scene's grid, else its horizontal extent).
+    #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
+    pub grid_min: Option<[f64; 2]>,
+    /// Opposite grid corner X,Y.
+    #[arg(long, value_parser = parse_xy, allow_hyphen_values = true)]
+    pub grid_max: Option<[f64; 2]>,
+    /// Rays per transmitter (default: the scene's, else 10^6).
+    #[arg(long)]
+    pub rays: Option<u64>,
+    /// Maximum number of reflections (and transmissions) per ray (default: the scene's, else 3).
+    #[arg(long)]
+    pub max_depth: Option<u32>,
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Extra materials file(s).
+    #[arg(long = "materials")]
+    pub materials: Vec<PathBuf>,
+    /// Use ITU-R P.2040 fits outside their frequency ranges.
+    #[arg(long)]
+    pub extrapolate: bool,
+    /// Walls are thin slabs that also transmit (ITU-R P.2040-3 sec. 2.2.2.2).
+    #[arg(long)]
+    pub transmission: bool,
+    /// Slab thickness for --transmission, m (default 0.2).
+    #[arg(long)]
+    pub wall_thickness_m: Option<f64>,
+    /// Extra coherent point receiver X,Y,Z (repeatable).
+    #[arg(long = "rx", value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub rx: Vec<[f32; 3]>,
+    /// Skip the scene's point receivers.
+    #[arg(long)]
+    pub no_receivers: bool,
+    /// Width of coverage.png, pixels.
+    #[arg(long, default_value_t = 1000)]
+    pub png_width: u32,
+    /// Output directory.
+    #[arg(long, default_value = "out")]
+    pub out: PathBuf,
+}
+
+impl RfArgs {
+    fn overrides(&self) -> Overrides {
+        Overrides {
+            tx: self.tx,
+            freq_ghz: self.freq_ghz,
+            tx_power_dbm: self.tx_power_dbm,
+            antenna: self.antenna.clone(),
+            polarization: self.polarization.clone(),
+            orientation: self.orientation,
+            grid_height_m: self.grid_height,
+            cell_m: self.cell_m,
+            grid_min: self.grid_min,
+            grid_max: self.grid_max,
+            rays: self.rays,
+            max_depth: self.max_depth,
+            seed: self.seed,
+            extrapolate: self.extrapolate,
+            transmission: self.transmission,
+            wall_thickness_m: self.wall_thickness_m,
+            receivers: self.rx.clone(),
+            no_receivers: self.no_receivers,
+        }
+    }
+}
+
+fn load_world(scene_path: &std::path::Path, materials: &[PathBuf]) -> anyhow::Result<World> {
+    let scene = scene::load(scene_path, &LoadOptions { materials_files: materials.to_vec() })?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    Ok(World::build(scene))
+}
+
+/// A progress bar on a terminal, a hidden one otherwise.
+fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
+    Some(super::progress::bar(total, "rays"))
+}
+
+/// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and summary.json.
+pub fn run(args: &RfArgs) -> anyhow::Result<()> {
+    let world = load_world(&args.scene, &args.materials)?;
+    let scene_name = args.scene.display().to_string();
+    let config =
+        RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
+    let pb = progress_bar(config.rays * config.transmitters.len() as u64);
+    let result = simulate(&world, &config, &|n| {
+        if let Some(pb) = &pb {
+            pb.inc(n);
+        }
+    })
+    .with_context(|| scene_name.clone())?;
+    if let Some(pb) = &pb {
+        pb.finish_and_clear();
+    }
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
+    let csv = args.out.join("coverage.csv");
+    let png = args.out.join("coverage.png");
+    let json = args.out.join("summary.json");
+    write_coverage_csv(&csv, &result)?;
+    let feet = footprints(&world.scene.mesh, config.grid.height_m);
+    let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
+    let t0 = &config.transmitters[0];
+    let title = format!(
+        "{} | {} at {:.3} GHz | {} rays, depth {} | h = {} m",
+        scene_name, t0.name, t0.freq_ghz, config.rays, config.max_depth, config.grid.height_m
+    );
+    write_coverage_png(
+        &png,
+        &result.coverage,
+        &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
+        args.png_width,
+    )?;
+    let outputs = [&csv, &png, &json].iter().map(|p| p.display().to_string()).collect();
+    let s = summary(&scene_name, &config, &result, outputs);
+    write_summary_json(&json, &s)?;
+    println!(
+        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s ({:.2} Mrays/s)",
+        scene_name,
+        config.grid.nx,
+        config.grid.ny,
+        config.grid.cell_m,
+        config.grid.height_m,
+        s.map.reached_cells,
+        config.rays,
+        result.seconds,
+        s.rays_per_second / 1e6
+    );
+    for r in &s.receivers {
+        let f = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.2} dB"));
+        println!(
+            "  {} -> {}: {} paths, coherent {}, incoherent {}, grid cell {}",
+            r.transmitter,
+            r.name,
+            r.paths,
+            f(r.coherent_path_gain_db),
+            f(r.incoherent_path_gain_db),
+            f(r.grid_path_gain_db)
+        );
+    }
+    println!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    Ok(())
+}
+
+#[derive(Args, Debug)]
+pub struct BenchRfArgs {
+    /// Scene (default: the street canyon).
+    #[arg(default_value = "rooms/street_canyon/scene.toml")]
+    pub scene: PathBuf,
+    /// Rays per run.
+    #[arg(long, default_value_t = 10_000_000)]
+    pub rays: u64,
+    #[arg(long, default_value_t = 1.0)]
+    pub cell_m: f64,
+    #[arg(long, default_value_t = 3)]
+    pub max_depth: u32,
+    /// Timed runs; medians are reported.
+    #[arg(long, default_value_t = 3)]
+    pub repeat: usize,
+}
+
+/// CPU time (user + system) of this process so far, seconds, from /proc (Linux); `None`
+/// elsewhere.
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the command name (which is in parentheses and may hold spaces).
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let ticks = f.get(11)?.parse::<f64>().ok()? + f.get(12)?.parse::<f64>().ok()?;
+    // USER_HZ is 100 on every Linux platform Rust supports.
+    Some(ticks / 100.0)
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// Runs the coverage map `repeat` times and prints the median wall time and rays/s.
+pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(args.repeat >= 1, "--repeat {}: must be at least 1", args.repeat);
+    let world = load_world(&args.scene, &[])?;
+    let name = args.scene.display().to_string();
+    let overrides = Overrides {
+        rays: Some(args.rays),
+        cell_m: Some(args.cell_m),
+        max_depth: Some(args.max_depth),
+        no_receivers: true,
+        ..Overrides::default()
+    };
+    let mut config = RfConfig::from_scene(&world, &overrides).map_err(|e| anyhow::anyhow!("{name}: {e}"))?;
+    config.transmitters.truncate(1);
+    let mut walls = Vec::new();
+    let mut cpus = Vec::new();
+    let mut reached = 0;
+    for _ in 0..args.repeat {
+        let t0 = Instant::now();
+        let c0 = process_cpu_seconds();
+        let r = simulate(&world, &config, &|_| {})?;
+        walls.push(t0.elapsed().as_secs_f64());
+        if let (Some(a), Some(b)) = (c0, process_cpu_seconds()) {
+            cpus.push(b - a);
+        }
+        reached = r.coverage.paths.iter().filter(|&&p| p > 0).count();
+    }
+    let wall = median(walls.clone());
+    println!(
+        "bench rf: {name}, {} x {} cells of {} m, {} rays, depth {}, {} threads",
+        config.grid.nx,
+        config.grid.ny,
+        config.grid.cell_m,
+        config.rays,
+        config.max_depth,
+        rayon::current_num_threads()
+    );
+    println!(
+        "wall time {:.3} s (median of {}; runs {:?}), {:.2} Mrays/s, {} cells reached",
+        wall,
+        args.repeat,
+        walls.iter().map(|w| (w * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
+        config.rays as f64 / wall / 1e6,
+        reached
+    );
+    if !cpus.is_empty() {
+        let cpu = median(cpus);
+        println!(
+            "cpu time {cpu:.2} s (median): {:.2} Mrays per CPU-second; {:.0} % of the threads' time \
+             was ours (below 100 % when other processes share the cores)",
+            config.rays as f64 / cpu / 1e6,
+            100.0 * cpu / (wall * rayon::current_num_threads() as f64)
+        );
+    }
+    Ok(())
+}

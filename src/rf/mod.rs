@@ -1,0 +1,220 @@
+//! Radio coverage: shooting-and-bouncing rays from the shared launcher
+//! ([`crate::core::launcher`]) with the exact Fresnel coefficients of ITU-R P.2040-3
+//! materials, a coverage grid of average path gain per cell, and coherent point receivers by
+//! the exact image method.
+//!
+//! ```no_run
+//! use propsim::rf::{RfConfig, simulate};
+//! use propsim::scene::{LoadOptions, World, load};
+//! let world = World::build(load("rooms/street_canyon/scene.toml".as_ref(), &LoadOptions::default())?);
+//! let config = RfConfig::from_scene(&world, &Default::default()).map_err(anyhow::Error::msg)?;
+//! let result = simulate(&world, &config, &|_| {})?;
+//! println!("{} cells reached", result.coverage.paths.iter().filter(|&&p| p > 0).count());
+//! # Ok::<(), anyhow::Error>(())
+//! ```
+
+pub mod antenna;
+pub mod config;
+pub mod coverage;
+pub mod fresnel;
+pub mod output;
+pub mod plot;
+pub mod propagation;
+pub mod receivers;
+
+pub use antenna::{Antenna, Polarization};
+pub use config::{Overrides, RfConfig, Transmitter};
+pub use coverage::{Coverage, CoverageAccumulator, GridSpec};
+
+use glam::DVec3;
+
+use crate::core::launcher::{self, Launch, LaunchPattern};
+use crate::scene::World;
+use crate::scene::itu::itu_lookup;
+use crate::scene::materials::RadioProps;
+use fresnel::{C0, Complex, complex_permittivity};
+use propagation::{RadioPropagation, SurfacePhysics};
+use receivers::{PathSum, affordable_depth, coherent_paths, distinct_planes};
+
+/// Free-space path loss `20 log10(4 pi d f / c)` in dB (Friis).
+pub fn free_space_path_loss_db(distance_m: f64, freq_hz: f64) -> f64 {
+    20.0 * (4.0 * std::f64::consts::PI * distance_m * freq_hz / C0).log10()
+}
+
+/// The complex permittivity of every surface of `world` at `freq_ghz`. Surfaces without
+/// radio data, and ITU materials outside their frequency range (unless `extrapolate`), are
+/// errors naming the surface.
+pub fn surface_permittivities(
+    world: &World,
+    freq_ghz: f64,
+    extrapolate: bool,
+) -> Result<Vec<Option<Complex>>, String> {
+    let used: std::collections::BTreeSet<u32> =
+        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let mut out = Vec::with_capacity(world.scene.surfaces.len());
+    for (id, s) in world.scene.surfaces.iter().enumerate() {
+        if !used.contains(&(id as u32)) {
+            out.push(None);
+            continue;
+        }
+        let radio = s.material.as_ref().and_then(|m| m.radio.as_ref()).ok_or_else(|| {
+            format!(
+                "surface \"{}\" has no radio properties: give its material itu = \"NAME\" or relative_permittivity and conductivity_s_per_m (--materials FILE)",
+                s.name
+            )
+        })?;
+        let eta = match radio {
+            RadioProps::Itu(name) => {
+                let (m, covered) = itu_lookup(name, freq_ghz).ok_or_else(|| {
+                    format!("surface \"{}\": unknown ITU-R P.2040 material \"{name}\"", s.name)
+                })?;
+                if !covered && !extrapolate {
+                    return Err(format!(
+                        "surface \"{}\": ITU-R P.2040-3 gives {name} for {}-{} GHz only, not {freq_ghz} GHz (use --extrapolate to extend the fit)",
+                        s.name, m.freq_min_ghz, m.freq_max_ghz
+                    ));
+                }
+                complex_permittivity(
+                    m.relative_permittivity(freq_ghz),
+                    m.conductivity_s_per_m(freq_ghz),
+                    freq_ghz * 1e9,
+                )
+            }
+            RadioProps::Explicit { relative_permittivity, conductivity_s_per_m } => {
+                complex_permittivity(*relative_permittivity, *conductivity_s_per_m, freq_ghz * 1e9)
+            }
+        };
+        out.push(Some(eta));
+    }
+    Ok(out)
+}
+
+/// The radio constants a surface was simulated with.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SurfaceRadio {
+    pub surface: String,
+    pub material: Option<String>,
+    /// Real and imaginary parts of the complex relative permittivity at the carrier.
+    pub eta_re: f64,
+    pub eta_im: f64,
+    /// |Gamma| at normal incidence (half-space).
+    pub normal_incidence_reflection: f64,
+}
+
+/// One transmitter's share of a result.
+#[derive(Clone, Debug)]
+pub struct TransmitterResult {
+    pub name: String,
+    /// The surfaces' radio constants at this transmitter's frequency (surfaces in use only).
+    pub surfaces: Vec<SurfaceRadio>,
+    /// Coherent paths at each receiver of the config, in order.
+    pub receivers: Vec<PathSum>,
+    /// Reflection order the receiver search used (may be below `max_depth` in large scenes).
+    pub receiver_depth: u32,
+    pub trace_seconds: f64,
+}
+
+/// A finished simulation.
+#[derive(Clone, Debug)]
+pub struct RfResult {
+    /// Path gain summed over the transmitters (linear) and ray crossings per cell.
+    pub coverage: Coverage,
+    /// Received power per cell, mW, summed over the transmitters.
+    pub rx_power_mw: Vec<f64>,
+    pub transmitters: Vec<TransmitterResult>,
+    pub seconds: f64,
+}
+
+/// Runs every transmitter of `config` over `world`; `progress` gets the number of rays done.
+pub fn simulate(
+    world: &World,
+    config: &RfConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> anyhow::Result<RfResult> {
+    let start = std::time::Instant::now();
+    let mut coverage = Coverage::empty(config.grid);
+    let mut rx_power_mw = vec![0.0; config.grid.cells()];
+    let mut transmitters = Vec::new();
+    let planes = if config.receivers.is_empty() { Vec::new() } else { distinct_planes(&world.scene.mesh) };
+    for (ti, tx) in config.transmitters.iter().enumerate() {
+        let eta =
+            surface_permittivities(world, tx.freq_ghz, config.extrapolate).map_err(anyhow::Error::msg)?;
+        let wavelength_m = C0 / (tx.freq_ghz * 1e9);
+        let physics = SurfacePhysics {
+            eta,
+            slab_thickness_m: config.transmission.then_some(config.wall_thickness_m),
+            wavelength_m,
+        };
+        let t0 = std::time::Instant::now();
+        let mut tx_cov = None;
+        if config.rays > 0 {
+            let grid = CoverageAccumulator::new(config.grid);
+            let prop = RadioPropagation { antenna: tx.antenna, physics: &physics, grid: &grid };
+            let launch = Launch {
+                origin: tx.position.as_vec3(),
+                rays: config.rays,
+                seed: config.seed,
+                domain: ti as u64,
+                pattern: LaunchPattern::Fibonacci,
+                max_reflections: config.max_depth,
+                max_path_m: config.max_path_m as f32,
+            };
+            launcher::launch(&world.accel, &prop, &launch, progress);
+            tx_cov = Some(grid.finish(config.rays, wavelength_m));
+        }
+        let trace_seconds = t0.elapsed().as_secs_f64();
+        if let Some(c) = tx_cov {
+            let p_mw = 10f64.powf(tx.power_dbm / 10.0);
+            for (acc, g) in rx_power_mw.iter_mut().zip(&c.path_gain) {
+                *acc += p_mw * g;
+            }
+            coverage.add(&c);
+        }
+        let receiver_depth = affordable_depth(planes.len(), config.max_depth);
+        let receivers = config
+            .receivers
+            .iter()
+            .map(|r| {
+                coherent_paths(
+                    &world.accel,
+                    &planes,
+                    &physics,
+                    &tx.antenna,
+                    tx.position,
+                    r.position,
+                    receiver_depth,
+                )
+            })
+            .collect();
+        let surfaces = world
+            .scene
+            .surfaces
+            .iter()
+            .zip(&physics.eta)
+            .filter_map(|(s, eta)| {
+                eta.map(|e| SurfaceRadio {
+                    surface: s.name.clone(),
+                    material: s.material.as_ref().map(|m| m.name.clone()),
+                    eta_re: e.re,
+                    eta_im: e.im,
+                    normal_incidence_reflection: fresnel::reflection(e, 1.0).0.abs(),
+                })
+            })
+            .collect();
+        transmitters.push(TransmitterResult {
+            name: tx.name.clone(),
+            surfaces,
+            receivers,
+            receiver_depth,
+            trace_seconds,
+        });
+    }
+    Ok(RfResult { coverage, rx_power_mw, transmitters, seconds: start.elapsed().as_secs_f64() })
+}
+
+/// A point receiver of the coherent mode.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PointReceiver {
+    pub name: String,
+    pub position: DVec3,
+}

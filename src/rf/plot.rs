@@ -1,0 +1,168 @@
+//! `coverage.png`: the path-gain map as a heat map with a dB colour bar, the buildings'
+//! footprints (the walls cut at the grid height) and the transmitters, drawn with plotters
+//! into an RGB buffer and written with `png`. Text uses DejaVu Sans shipped in
+//! `assets/fonts` (its licence is next to it).
+
+use std::path::Path;
+
+use plotters::prelude::*;
+
+use super::coverage::Coverage;
+use crate::core::TriangleMesh;
+use crate::io::plot::{register_font, write_rgb_png};
+
+/// Viridis (van der Walt & Smith, matplotlib), sampled at nine stops.
+const VIRIDIS: [[u8; 3]; 9] = [
+    [68, 1, 84],
+    [71, 44, 122],
+    [59, 81, 139],
+    [44, 113, 142],
+    [33, 144, 141],
+    [39, 173, 129],
+    [92, 200, 99],
+    [170, 220, 50],
+    [253, 231, 37],
+];
+
+/// The colour of `t` in [0, 1].
+pub fn colormap(t: f64) -> RGBColor {
+    let x = t.clamp(0.0, 1.0) * (VIRIDIS.len() - 1) as f64;
+    let i = (x.floor() as usize).min(VIRIDIS.len() - 2);
+    let f = x - i as f64;
+    let mix = |a: u8, b: u8| (f64::from(a) + f * (f64::from(b) - f64::from(a))).round() as u8;
+    let (a, b) = (VIRIDIS[i], VIRIDIS[i + 1]);
+    RGBColor(mix(a[0], b[0]), mix(a[1], b[1]), mix(a[2], b[2]))
+}
+
+/// Segments where the mesh's triangles cross the plane `z = h`: the footprints of walls and
+/// buildings at the grid height.
+pub fn footprints(mesh: &TriangleMesh, h: f64) -> Vec<[(f64, f64); 2]> {
+    let mut out = Vec::new();
+    for i in 0..mesh.triangle_count() {
+        let c = mesh.corners(i).map(|v| v.as_dvec3());
+        let mut pts = Vec::with_capacity(2);
+        for k in 0..3 {
+            let (a, b) = (c[k], c[(k + 1) % 3]);
+            let (da, db) = (a.z - h, b.z - h);
+            if (da < 0.0) != (db < 0.0) {
+                let t = da / (da - db);
+                let p = a + (b - a) * t;
+                pts.push((p.x, p.y));
+            }
+        }
+        if pts.len() == 2 {
+            out.push([pts[0], pts[1]]);
+        }
+    }
+    out
+}
+
+/// What to draw besides the map.
+pub struct PlotExtras<'a> {
+    pub title: &'a str,
+    pub footprints: &'a [[(f64, f64); 2]],
+    /// Transmitter (x, y) positions.
+    pub transmitters: &'a [(f64, f64)],
+}
+
+/// The colour scale's range, dB: from the maximum down 80 dB, or to the minimum if closer.
+pub fn db_range(cov: &Coverage) -> Option<(f64, f64)> {
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for &g in cov.path_gain.iter().filter(|&&g| g > 0.0) {
+        let d = 10.0 * g.log10();
+        lo = lo.min(d);
+        hi = hi.max(d);
+    }
+    if !hi.is_finite() {
+        return None;
+    }
+    let hi = (hi / 5.0).ceil() * 5.0;
+    let lo = ((lo.max(hi - 80.0)) / 5.0).floor() * 5.0;
+    Some((lo, if hi > lo { hi } else { lo + 5.0 }))
+}
+
+/// Draws the map into an RGB image of about `width` pixels and writes it as PNG.
+pub fn write_coverage_png(
+    path: &Path,
+    cov: &Coverage,
+    extras: &PlotExtras,
+    width: u32,
+) -> anyhow::Result<()> {
+    register_font();
+    let spec = cov.spec;
+    let (x0, y0) = (spec.min_m[0], spec.min_m[1]);
+    let (x1, y1) = (x0 + spec.nx as f64 * spec.cell_m, y0 + spec.ny as f64 * spec.cell_m);
+    let (left, right, top, bottom) = (70u32, 120u32, 40u32, 50u32);
+    let map_w = width.saturating_sub(left + right).max(100);
+    let map_h = ((f64::from(map_w) * (y1 - y0) / (x1 - x0)).round() as u32).clamp(100, 1600);
+    let (w, h) = (left + map_w + right, top + map_h + bottom);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    let range = db_range(cov);
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (main, bar) = root.split_horizontally(w - right + 10);
+        let mut chart = ChartBuilder::on(&main)
+            .caption(extras.title, ("sans-serif", 18))
+            .margin_top(8)
+            .margin_right(10)
+            .x_label_area_size(bottom - 8)
+            .y_label_area_size(left - 8)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        // The map, pixel by pixel.
+        let area = chart.plotting_area().strip_coord_spec();
+        let (pw, ph) = area.dim_in_pixel();
+        for py in 0..ph {
+            for px in 0..pw {
+                let x = x0 + (f64::from(px) + 0.5) / f64::from(pw) * (x1 - x0);
+                let y = y1 - (f64::from(py) + 0.5) / f64::from(ph) * (y1 - y0);
+                let color = match (spec.cell_of(x, y), range) {
+                    (Some(c), Some((lo, hi))) if cov.path_gain[c] > 0.0 => {
+                        colormap((10.0 * cov.path_gain[c].log10() - lo) / (hi - lo))
+                    }
+                    _ => RGBColor(200, 200, 200),
+                };
+                area.draw_pixel((px as i32, py as i32), &color)?;
+            }
+        }
+        for seg in extras.footprints {
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![seg[0], seg[1]],
+                WHITE.stroke_width(2),
+            )))?;
+        }
+        for &(x, y) in extras.transmitters {
+            chart.draw_series(std::iter::once(Cross::new((x, y), 6, RED.stroke_width(2))))?;
+        }
+        // The colour bar.
+        if let Some((lo, hi)) = range {
+            let bar_x = 10i32;
+            let bar_w = 22i32;
+            let (by0, by1) = (top as i32 + 8, (top + map_h) as i32 - 8);
+            for py in by0..=by1 {
+                let t = 1.0 - f64::from(py - by0) / f64::from(by1 - by0);
+                bar.draw(&Rectangle::new([(bar_x, py), (bar_x + bar_w, py + 1)], colormap(t).filled()))?;
+            }
+            bar.draw(&Rectangle::new([(bar_x, by0), (bar_x + bar_w, by1 + 1)], BLACK.stroke_width(1)))?;
+            let step = if hi - lo > 50.0 { 10.0 } else { 5.0 };
+            let mut v = (lo / step).ceil() * step;
+            while v <= hi + 1e-9 {
+                let py = by1 - ((v - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
+                bar.draw(&PathElement::new(vec![(bar_x + bar_w, py), (bar_x + bar_w + 4, py)], BLACK))?;
+                bar.draw(&Text::new(format!("{v:.0}"), (bar_x + bar_w + 7, py - 7), ("sans-serif", 13)))?;
+                v += step;
+            }
+            bar.draw(&Text::new("path gain (dB)", (bar_x - 4, by0 - 24), ("sans-serif", 13)))?;
+        }
+        root.present()?;
+    }
+    write_rgb_png(path, w, h, &buf)
+}

@@ -1,0 +1,175 @@
+//! `propsim rf` end to end: outputs, determinism across thread counts, and every bad input
+//! as a clean one-line error.
+
+use std::process::Command;
+
+/// Runs `propsim ARGS`, returning (success, stdout, stderr).
+fn propsim(args: &[&str]) -> (bool, String, String) {
+    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).args(args).output().expect("runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// Asserts a clean failure: non-zero exit, exactly one `error:` line containing every needle.
+fn assert_clean_error(args: &[&str], needles: &[&str]) {
+    let (ok, _, err) = propsim(args);
+    assert!(!ok, "{args:?} should fail");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning:")).collect();
+    assert_eq!(lines.len(), 1, "one line expected: {err}");
+    assert!(lines[0].starts_with("error:"), "{err}");
+    for n in needles {
+        assert!(lines[0].contains(n), "error should mention \"{n}\": {}", lines[0]);
+    }
+}
+
+/// A command-line syntax error (from clap): non-zero exit, first line `error:` with the needles.
+fn assert_usage_error(args: &[&str], needles: &[&str]) {
+    let (ok, _, err) = propsim(args);
+    assert!(!ok && !err.contains("panicked"), "{args:?}: {err}");
+    let first = err.lines().next().unwrap_or_default();
+    assert!(first.starts_with("error:"), "{err}");
+    for n in needles {
+        assert!(first.contains(n), "error should mention \"{n}\": {first}");
+    }
+}
+
+const CANYON: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/rooms/street_canyon/scene.toml");
+const L_ROOM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/rooms/l_room/scene.toml");
+
+#[test]
+fn coverage_csv_is_byte_identical_for_one_and_two_threads_and_well_formed() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |threads: &str| {
+        let out = dir.path().join(format!("t{threads}"));
+        let (ok, _, err) = propsim(&[
+            "--threads",
+            threads,
+            "rf",
+            CANYON,
+            "--rays",
+            "300000",
+            "--cell-m",
+            "2",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{err}");
+        out
+    };
+    let (a, b) = (run("1"), run("2"));
+    let csv = std::fs::read(a.join("coverage.csv")).unwrap();
+    assert_eq!(csv, std::fs::read(b.join("coverage.csv")).unwrap(), "CSV differs between 1 and 2 threads");
+    let text = String::from_utf8(csv).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(lines.next(), Some("x_m,y_m,z_m,path_gain_db,rx_power_dbm,paths"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 90 * 60);
+    assert!(!text.contains("inf") && !text.contains("NaN"));
+    let (mut empty, mut reached) = (0, 0);
+    for r in &rows {
+        assert_eq!(r.len(), 6);
+        assert_eq!(r[2], "1.500");
+        if r[3].is_empty() {
+            assert!(r[4].is_empty() && r[5] == "0");
+            empty += 1;
+        } else {
+            let g: f64 = r[3].parse().unwrap();
+            let p: f64 = r[4].parse().unwrap();
+            assert!((p - (g + 30.0)).abs() < 0.002, "rx power = 30 dBm + gain");
+            assert!(r[5].parse::<u32>().unwrap() > 0);
+            reached += 1;
+        }
+    }
+    // Cells inside buildings are never reached; the streets are.
+    assert!(empty > 1000 && reached > 1000, "{empty} {reached}");
+    let png = std::fs::read(a.join("coverage.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(a.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(json["config"]["rays"], 300000);
+    assert_eq!(json["config"]["transmitters"][0]["freq_ghz"], 3.5);
+    assert!(json["estimator"].as_str().unwrap().contains("power (incoherent) sum"));
+    assert_eq!(json["receivers"].as_array().unwrap().len(), 3);
+}
+
+#[test]
+fn materials_outside_their_itu_range_need_extrapolate() {
+    // The L-shaped room has floorboard, which ITU-R P.2040-3 gives for 50-100 GHz only.
+    assert_clean_error(&["rf", L_ROOM, "--rays", "1000"], &["floorboard", "50-100 GHz", "--extrapolate"]);
+    assert_clean_error(
+        &["rf", CANYON, "--rays", "1000", "--freq-ghz", "20"],
+        &["medium_dry_ground", "--extrapolate"],
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let (ok, out, err) = propsim(&[
+        "rf",
+        L_ROOM,
+        "--rays",
+        "20000",
+        "--extrapolate",
+        "--transmission",
+        "--out",
+        dir.path().to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(out.contains("P_nlos"), "{out}");
+}
+
+#[test]
+fn bad_inputs_are_one_line_errors() {
+    assert_clean_error(&["rf", CANYON, "--cell-m", "0"], &["cell size", "positive"]);
+    assert_clean_error(&["rf", CANYON, "--rays", "0"], &["--rays 0"]);
+    assert_clean_error(&["rf", CANYON, "--rays", "100000000000"], &["--rays 100000000000", "between 1 and"]);
+    assert_clean_error(&["rf", CANYON, "--cell-m", "0.001"], &["too many", "larger cell"]);
+    assert_clean_error(&["rf", CANYON, "--freq-ghz", "-1"], &["TX1", "positive"]);
+    assert_usage_error(&["rf", CANYON, "--tx", "1,2"], &["--tx", "X,Y,Z"]);
+    assert_usage_error(&["rf", CANYON, "--rays", "many"], &["--rays"]);
+    assert_clean_error(
+        &["rf", CANYON, "--tx", "0,0,10", "--antenna", "yagi"],
+        &["yagi", "isotropic or dipole"],
+    );
+    assert_clean_error(
+        &["rf", CANYON, "--polarization", "diagonal"],
+        &["diagonal", "vertical or horizontal"],
+    );
+    assert_clean_error(&["rf", CANYON, "--max-depth", "1000"], &["--max-depth"]);
+    assert_clean_error(
+        &["rf", CANYON, "--antenna", "dipole", "--orientation", "0,0,0"],
+        &["TX1", "not a direction"],
+    );
+    assert_clean_error(&["rf", CANYON, "--grid-min", "10,10", "--grid-max", "0,0"], &["max must exceed min"]);
+    assert_clean_error(&["rf", "builtin:bras_cr2"], &["no transmitter", "--tx"]);
+    assert_clean_error(
+        &["rf", "builtin:cornell_box", "--tx", "1,1,1"],
+        &["cornell_white", "no radio properties"],
+    );
+    assert_clean_error(&["rf", "no/such/scene.toml"], &["no/such/scene.toml"]);
+}
+
+#[test]
+fn street_canyon_map_agrees_with_the_exact_paths_at_the_receivers() {
+    // The stochastic map's cell value against the exact image-method power sum at the two
+    // line-of-sight receivers (direct, ground, facades; up to 3 reflections).
+    use propsim::rf::{Overrides, RfConfig, simulate};
+    use propsim::scene::{LoadOptions, World, load};
+    let world = World::build(load(CANYON.as_ref(), &LoadOptions::default()).unwrap());
+    let o = Overrides { rays: Some(2_000_000), ..Overrides::default() };
+    let config = RfConfig::from_scene(&world, &o).unwrap();
+    let result = simulate(&world, &config, &|_| {}).unwrap();
+    let tx = &result.transmitters[0];
+    for (r, paths) in config.receivers.iter().zip(&tx.receivers).take(2) {
+        let cell = config.grid.cell_of(r.position.x + 0.5, r.position.y + 0.5).unwrap();
+        let grid_db = 10.0 * result.coverage.path_gain[cell].log10();
+        let exact_db = 10.0 * paths.incoherent_gain.log10();
+        eprintln!(
+            "{}: grid {grid_db:.2} dB, exact power sum {exact_db:.2} dB, {} paths",
+            r.name, paths.paths
+        );
+        assert!(paths.line_of_sight && paths.paths >= 4);
+        assert!((grid_db - exact_db).abs() < 1.0, "{}: {grid_db} vs {exact_db}", r.name);
+    }
+}

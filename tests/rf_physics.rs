@@ -1,0 +1,320 @@
+//! Radio physics against closed-form answers: Friis in free space, the two-ray model over an
+//! ITU-R P.2040 concrete ground (power sum on the coverage grid, exact field at coherent
+//! point receivers).
+
+use glam::{DVec3, Vec3};
+use propsim::core::launcher::{Launch, LaunchPattern, launch};
+use propsim::core::{Accel, BuildQuality, TriangleMesh};
+use propsim::rf::coverage::{Coverage, CoverageAccumulator, GridSpec};
+use propsim::rf::fresnel::{C0, Complex, complex_permittivity, reflection};
+use propsim::rf::propagation::{RadioPropagation, SurfacePhysics};
+use propsim::rf::receivers::{coherent_paths, distinct_planes};
+use propsim::rf::{Antenna, Polarization, free_space_path_loss_db};
+use propsim::scene::itu::itu_lookup;
+
+const F_HZ: f64 = 3.5e9;
+const VERTICAL: Antenna = Antenna::Isotropic { polarization: Polarization::Vertical };
+
+fn lambda() -> f64 {
+    C0 / F_HZ
+}
+
+fn concrete() -> Complex {
+    let (m, ok) = itu_lookup("concrete", 3.5).unwrap();
+    assert!(ok);
+    complex_permittivity(m.relative_permittivity(3.5), m.conductivity_s_per_m(3.5), F_HZ)
+}
+
+/// A square ground of concrete at z = 0, `half` metres each way.
+fn ground(half: f32) -> TriangleMesh {
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("concrete");
+    let (a, b) = (-half, half);
+    mesh.push_quad(Vec3::new(a, a, 0.0), Vec3::new(b, a, 0.0), Vec3::new(b, b, 0.0), Vec3::new(a, b, 0.0), s);
+    mesh
+}
+
+fn run_grid(mesh: &TriangleMesh, tx: DVec3, grid: GridSpec, rays: u64, depth: u32) -> Coverage {
+    run_grid_with(VERTICAL, mesh, tx, grid, rays, depth)
+}
+
+fn run_grid_with(
+    antenna: Antenna,
+    mesh: &TriangleMesh,
+    tx: DVec3,
+    grid: GridSpec,
+    rays: u64,
+    depth: u32,
+) -> Coverage {
+    let accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+    let physics =
+        SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };
+    let acc = CoverageAccumulator::new(grid);
+    let prop = RadioPropagation { antenna, physics: &physics, grid: &acc };
+    let l = Launch {
+        origin: tx.as_vec3(),
+        rays,
+        seed: 3,
+        domain: 0,
+        pattern: LaunchPattern::Fibonacci,
+        max_reflections: depth,
+        max_path_m: 1.0e5,
+    };
+    launch(&accel, &prop, &l, &|_| {});
+    acc.finish(rays, lambda())
+}
+
+/// The average of `f(horizontal distance from tx)` over cell `i` (8 x 8 samples).
+fn cell_average(cov: &Coverage, i: usize, tx: DVec3, f: &impl Fn(f64) -> f64) -> f64 {
+    let [cx, cy] = cov.spec.centre(i);
+    let c = cov.spec.cell_m;
+    let mut sum = 0.0;
+    for a in 0..8 {
+        for b in 0..8 {
+            let x = cx + c * ((f64::from(a) + 0.5) / 8.0 - 0.5);
+            let y = cy + c * ((f64::from(b) + 0.5) / 8.0 - 0.5);
+            sum += f((x - tx.x).hypot(y - tx.y));
+        }
+    }
+    sum / 64.0
+}
+
+/// Ratio in dB of the simulated to the expected gain, summed over the cells whose centre
+/// lies at a horizontal distance within `rel` of `d` (an annulus; all cells are reached).
+fn annulus_ratio_db(cov: &Coverage, tx: DVec3, d: f64, rel: f64, expected: impl Fn(f64) -> f64) -> f64 {
+    let (mut sim, mut want, mut n) = (0.0, 0.0, 0);
+    for i in 0..cov.spec.cells() {
+        let [x, y] = cov.spec.centre(i);
+        let r = (x - tx.x).hypot(y - tx.y);
+        if (r - d).abs() <= (rel * d).max(cov.spec.cell_m * 0.5) {
+            sim += cov.path_gain[i];
+            want += cell_average(cov, i, tx, &expected);
+            n += 1;
+        }
+    }
+    assert!(n > 0, "no cells at {d} m");
+    10.0 * (sim / want).log10()
+}
+
+#[test]
+fn free_space_path_loss_matches_design_values() {
+    assert!((free_space_path_loss_db(100.0, 3.5e9) - 83.33).abs() < 0.005);
+    assert!((free_space_path_loss_db(100.0, 2.4e9) - 80.05).abs() < 0.005);
+}
+
+#[test]
+fn free_space_coverage_follows_friis_from_10_to_500_m() {
+    // Transmitter 10 m above the grid plane, nothing else: the map must be Friis,
+    // g = (lambda / 4 pi r)^2 with r the slant distance.
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-500.0, -500.0], [500.0, 500.0], 5.0, 0.0).unwrap();
+    let cov = run_grid(&TriangleMesh::default(), tx, grid, 2_000_000, 0);
+    let friis = |r: f64| {
+        let slant = r.hypot(10.0);
+        10f64.powf(-free_space_path_loss_db(slant, F_HZ) / 10.0)
+    };
+    // The cell straight below: 10 m.
+    let below = cov.spec.cell_of(0.1, 0.1).unwrap();
+    let err = 10.0 * (cov.path_gain[below] / cell_average(&cov, below, tx, &friis)).log10();
+    eprintln!("friis 10 m: {err:+.3} dB");
+    assert!(err.abs() < 0.5, "10 m: {err:.3} dB");
+    for d in [15.0, 25.0, 50.0, 100.0, 200.0, 300.0, 400.0, 495.0] {
+        let err = annulus_ratio_db(&cov, tx, d, 0.01, friis);
+        eprintln!("friis {d} m: {err:+.3} dB");
+        assert!(err.abs() < 0.5, "{d} m: {err:.3} dB");
+    }
+}
+
+#[test]
+fn a_dipole_map_is_friis_times_the_dipole_gain() {
+    // A horizontal half-wave dipole along x, 10 m above the plane: g = G(psi) (lambda/4 pi r)^2.
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let axis = DVec3::X;
+    let dipole = Antenna::Dipole { axis };
+    let grid = GridSpec::covering([-100.0, -100.0], [100.0, 100.0], 2.0, 0.0).unwrap();
+    let cov = run_grid_with(dipole, &TriangleMesh::default(), tx, grid, 2_000_000, 0);
+    let mut worst = 0.0f64;
+    for (x, y) in [(1.0, 1.0), (31.0, 1.0), (1.0, 31.0), (21.0, 21.0), (-41.0, 21.0), (35.0, -35.0)] {
+        let cell = grid.cell_of(x, y).unwrap();
+        let [cx, cy] = grid.centre(cell);
+        let mut want = 0.0;
+        for a in 0..8 {
+            for b in 0..8 {
+                let p = DVec3::new(
+                    cx - 1.0 + (f64::from(a) + 0.5) / 4.0,
+                    cy - 1.0 + (f64::from(b) + 0.5) / 4.0,
+                    0.0,
+                );
+                let d = p - tx;
+                want += dipole.gain(d.normalize())
+                    * 10f64.powf(-free_space_path_loss_db(d.length(), F_HZ) / 10.0)
+                    / 64.0;
+            }
+        }
+        let err = 10.0 * (cov.path_gain[cell] / want).log10();
+        eprintln!("dipole ({x}, {y}): {err:+.3} dB, {} rays", cov.paths[cell]);
+        worst = worst.max(err.abs());
+    }
+    eprintln!("dipole map: worst {worst:.3} dB");
+    assert!(worst < 0.5, "{worst}");
+}
+
+/// The two-ray fields at horizontal distance `r` (Tx at `ht`, Rx at `hr`, ground z = 0,
+/// vertical polarisation): the direct and ground-reflected field vectors, each
+/// `(lambda / 4 pi L) e^{-jkL} pol`, with the image source's vertical polarisation and
+/// `R_TM` at the grazing angle (textbook two-ray model, e.g. Rappaport sec. 4.6).
+fn two_ray(r: f64, ht: f64, hr: f64) -> ([Complex; 3], [Complex; 3]) {
+    two_ray_pol(r, ht, hr, Polarization::Vertical)
+}
+
+/// [`two_ray`] for either polarisation: horizontal is `d x z` on both paths with `R_TE`.
+fn two_ray_pol(r: f64, ht: f64, hr: f64, polarization: Polarization) -> ([Complex; 3], [Complex; 3]) {
+    let k = std::f64::consts::TAU / lambda();
+    let pol = |d: DVec3| match polarization {
+        Polarization::Vertical => (DVec3::Z - d.z * d).normalize(),
+        Polarization::Horizontal => d.cross(DVec3::Z).normalize(),
+    };
+    let field = |l: f64, p: DVec3, c: Complex| {
+        let a = Complex::cis(-k * l).scale(lambda() / (4.0 * std::f64::consts::PI * l)) * c;
+        [a.scale(p.x), a.scale(p.y), a.scale(p.z)]
+    };
+    let d1 = DVec3::new(r, 0.0, hr - ht);
+    let d2 = DVec3::new(r, 0.0, hr + ht);
+    let cos_inc = (ht + hr) / d2.length();
+    let (r_te, r_tm) = reflection(concrete(), cos_inc);
+    let gamma = if polarization == Polarization::Vertical { r_tm } else { r_te };
+    (field(d1.length(), pol(d1.normalize()), Complex::ONE), field(d2.length(), pol(d2.normalize()), gamma))
+}
+
+fn power(v: &[Complex; 3]) -> f64 {
+    v.iter().map(|c| c.norm_sqr()).sum()
+}
+
+#[test]
+fn ground_reflection_grid_matches_two_ray_power_sum() {
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-300.0, -300.0], [300.0, 300.0], 4.0, 1.5).unwrap();
+    let cov = run_grid(&ground(5000.0), tx, grid, 2_000_000, 1);
+    let power_sum = |r: f64| {
+        let (a, b) = two_ray(r, 10.0, 1.5);
+        power(&a) + power(&b)
+    };
+    for d in [10.0, 20.0, 50.0, 100.0, 150.0, 200.0, 250.0, 295.0] {
+        let err = annulus_ratio_db(&cov, tx, d, 0.02, power_sum);
+        eprintln!("two-ray power sum {d} m: {err:+.3} dB");
+        assert!(err.abs() < 1.0, "{d} m: {err:.3} dB");
+    }
+}
+
+#[test]
+fn coherent_receivers_match_the_exact_two_ray_field() {
+    let mesh = ground(5000.0);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let planes = distinct_planes(&mesh);
+    assert_eq!(planes.len(), 1);
+    let physics =
+        SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    for polarization in [Polarization::Vertical, Polarization::Horizontal] {
+        let antenna = Antenna::Isotropic { polarization };
+        let mut compared = 0;
+        let mut worst = 0.0f64;
+        for i in 0..200 {
+            let r = 10.0 + 1.45 * f64::from(i);
+            let (a, b) = two_ray_pol(r, 10.0, 1.5, polarization);
+            let sum: Vec<Complex> = a.iter().zip(&b).map(|(x, y)| *x + *y).collect();
+            let coherent = sum.iter().map(|c| c.norm_sqr()).sum::<f64>();
+            let incoherent = power(&a) + power(&b);
+            let got = coherent_paths(&accel, &planes, &physics, &antenna, tx, DVec3::new(r, 0.0, 1.5), 2);
+            assert_eq!(got.paths, 2, "{r} m");
+            assert!((10.0 * (got.incoherent_gain / incoherent).log10()).abs() < 0.01);
+            // Away from the nulls (more than 6 dB below the power sum) the field must match.
+            if coherent > incoherent / 4.0 {
+                let err = 10.0 * (got.coherent_gain / coherent).log10();
+                assert!(err.abs() < 0.5, "{r} m: {err:.3} dB");
+                worst = worst.max(err.abs());
+                compared += 1;
+            }
+        }
+        eprintln!("coherent two-ray {polarization:?}: {compared} points, worst {worst:.2e} dB");
+        assert!(compared > 100, "{compared}");
+    }
+}
+
+#[test]
+fn a_thin_concrete_wall_transmits_the_slab_coefficient() {
+    // A 0.2 m concrete slab in the plane x = 5 between the transmitter and the cells behind
+    // it: on the line y = 0 the field is TM (in the plane of incidence), so the map must be
+    // Friis times |T_TM|^2 of ITU-R P.2040-3's single-layer slab at the ray's angle.
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("concrete");
+    let (a, b) = (-1000.0, 1000.0);
+    mesh.push_quad(Vec3::new(5.0, a, a), Vec3::new(5.0, b, a), Vec3::new(5.0, b, b), Vec3::new(5.0, a, b), s);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-40.0, -0.5], [40.0, 0.5], 1.0, 1.5).unwrap();
+    let map = |slab: Option<f64>| {
+        let physics =
+            SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: slab, wavelength_m: lambda() };
+        let acc = CoverageAccumulator::new(grid);
+        let prop = RadioPropagation { antenna: VERTICAL, physics: &physics, grid: &acc };
+        let l = Launch {
+            origin: tx.as_vec3(),
+            rays: 2_000_000,
+            seed: 5,
+            domain: 0,
+            pattern: LaunchPattern::Fibonacci,
+            max_reflections: 1,
+            max_path_m: 1.0e5,
+        };
+        launch(&accel, &prop, &l, &|_| {});
+        acc.finish(l.rays, lambda())
+    };
+    let opaque = map(None);
+    let slab = map(Some(0.2));
+    for x in [10.5, 15.5, 20.5, 30.5] {
+        let cell = grid.cell_of(x, 0.0).unwrap();
+        assert_eq!(opaque.paths[cell], 0, "an opaque wall hides x = {x}");
+        let d = DVec3::new(x, 0.0, 1.5) - tx;
+        let cos = d.x / d.length();
+        let t = propsim::rf::fresnel::slab(concrete(), cos, 0.2, lambda()).t_tm.norm_sqr();
+        let want = t * 10f64.powf(-free_space_path_loss_db(d.length(), F_HZ) / 10.0);
+        let err = 10.0 * (slab.path_gain[cell] / want).log10();
+        eprintln!("slab transmission x = {x} m: |T|^2 = {:.2} dB, error {err:+.3} dB", 10.0 * t.log10());
+        assert!(err.abs() < 0.5, "x = {x}: {err:.3} dB");
+    }
+    // In front of the wall both see the direct ray and the wall's reflection.
+    let front = grid.cell_of(-20.5, 0.0).unwrap();
+    assert!(slab.paths[front] > 0 && opaque.paths[front] == slab.paths[front]);
+}
+
+/// The README's accuracy figure: per-cell error of a free-space map (street canyon size,
+/// 1 m cells, Tx 8.5 m above the plane) against the cell averages of Friis, by ray count.
+/// `cargo test --release --test rf_physics -- --ignored --nocapture`
+#[test]
+#[ignore]
+fn free_space_map_error_by_ray_count() {
+    let tx = DVec3::new(0.0, 0.0, 10.0);
+    let grid = GridSpec::covering([-90.0, -60.0], [90.0, 60.0], 1.0, 1.5).unwrap();
+    let friis = |r: f64| 10f64.powf(-free_space_path_loss_db(r.hypot(8.5), F_HZ) / 10.0);
+    for rays in [1_000_000u64, 3_000_000, 10_000_000, 100_000_000] {
+        let cov = run_grid(&TriangleMesh::default(), tx, grid, rays, 0);
+        let (mut sq, mut abs, mut worst, mut n, mut empty) = (0.0, 0.0, 0.0f64, 0, 0);
+        for i in 0..grid.cells() {
+            if cov.path_gain[i] == 0.0 {
+                empty += 1;
+                continue;
+            }
+            let e = 10.0 * (cov.path_gain[i] / cell_average(&cov, i, tx, &friis)).log10();
+            sq += e * e;
+            abs += e.abs();
+            worst = worst.max(e.abs());
+            n += 1;
+        }
+        let rms = (sq / f64::from(n)).sqrt();
+        eprintln!(
+            "{rays} rays: mean |error| {:.3} dB, rms {rms:.3} dB, max {worst:.3} dB, {empty} empty cells",
+            abs / f64::from(n)
+        );
+    }
+}
