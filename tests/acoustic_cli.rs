@@ -1,28 +1,10 @@
 //! `propsim acoustic` end to end: outputs, determinism across thread counts, bad input.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 
-fn propsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).args(args).output().expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-fn assert_clean_error(args: &[&str], needles: &[&str]) {
-    let (ok, _, err) = propsim(args);
-    assert!(!ok, "{args:?} should fail");
-    assert!(!err.contains("panicked"), "{err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning:")).collect();
-    assert_eq!(lines.len(), 1, "one line expected: {err}");
-    assert!(lines[0].starts_with("error: "), "{err}");
-    for n in needles {
-        assert!(lines[0].contains(n), "error should mention \"{n}\": {}", lines[0]);
-    }
-}
+use common::{assert_clean_error, propsim};
 
 fn read(p: &Path) -> Vec<u8> {
     std::fs::read(p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))

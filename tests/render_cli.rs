@@ -1,29 +1,18 @@
 //! `propsim render` from the command line: defaults, formats, automatic camera, progress
 //! quiet when piped, and a clean one-line error for every bad input.
 
+mod common;
+
 use std::path::Path;
-use std::process::Command;
 
 fn propsim_in(dir: &Path, args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).current_dir(dir).args(args).output().expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
+    common::propsim_in(Some(dir), args)
 }
 
 fn assert_clean_error(args: &[&str], needles: &[&str]) {
     let dir = tempfile::tempdir().unwrap();
     let (ok, _, err) = propsim_in(dir.path(), args);
-    assert!(!ok, "{args:?} should fail");
-    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
-    assert_eq!(lines.len(), 1, "{args:?}: one error line expected, got: {err}");
-    assert!(lines[0].starts_with("error:"), "{err}");
-    for n in needles {
-        assert!(lines[0].contains(n), "{args:?}: error should mention \"{n}\": {err}");
-    }
+    common::check_one_line_error(args, ok, &err, needles);
     assert!(!dir.path().join("out").exists(), "{args:?}: nothing written on error");
 }
 

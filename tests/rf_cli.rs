@@ -1,30 +1,9 @@
 //! `propsim rf` end to end: outputs, determinism across thread counts, and every bad input
 //! as a clean one-line error.
 
-use std::process::Command;
+mod common;
 
-/// Runs `propsim ARGS`, returning (success, stdout, stderr).
-fn propsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).args(args).output().expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
-/// Asserts a clean failure: non-zero exit, exactly one `error:` line containing every needle.
-fn assert_clean_error(args: &[&str], needles: &[&str]) {
-    let (ok, _, err) = propsim(args);
-    assert!(!ok, "{args:?} should fail");
-    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.starts_with("warning:")).collect();
-    assert_eq!(lines.len(), 1, "one line expected: {err}");
-    assert!(lines[0].starts_with("error:"), "{err}");
-    for n in needles {
-        assert!(lines[0].contains(n), "error should mention \"{n}\": {}", lines[0]);
-    }
-}
+use common::{assert_clean_error, propsim};
 
 /// A command-line syntax error (from clap): non-zero exit, first line `error:` with the needles.
 fn assert_usage_error(args: &[&str], needles: &[&str]) {

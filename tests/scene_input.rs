@@ -1,8 +1,11 @@
 //! Scene loading and every bad-input case: a one-line error naming the file and the
 //! problem, a non-zero exit, and no panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+use common::propsim;
 
 use glam::Vec3;
 use propsim::scene::{self, LoadOptions, World};
@@ -33,30 +36,11 @@ fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     p
 }
 
-/// Runs `propsim ARGS`, returning (success, stdout, stderr).
-fn propsim(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_propsim")).args(args).output().expect("runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into(),
-        String::from_utf8_lossy(&out.stderr).into(),
-    )
-}
-
 /// Asserts a clean failure: non-zero exit, one `error:` line naming `file` and containing
 /// every one of `needles`, and no panic.
 fn assert_clean_error(args: &[&str], file: &str, needles: &[&str]) {
-    let (ok, _, err) = propsim(args);
-    assert!(!ok, "{args:?} should fail");
-    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(lines.len(), 1, "exactly one error line expected, got: {err}");
-    assert_eq!(err.lines().filter(|l| !l.starts_with("warning:")).count(), 1, "one line: {err}");
-    let line = lines[0];
+    let line = common::assert_clean_error(args, needles);
     assert!(line.contains(file), "error should name {file}: {line}");
-    for n in needles {
-        assert!(line.contains(n), "error should mention \"{n}\": {line}");
-    }
 }
 
 #[test]

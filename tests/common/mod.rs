@@ -1,0 +1,45 @@
+//! Helpers shared by the end-to-end tests: run the binary, check for a clean one-line error.
+#![allow(dead_code)]
+
+use std::path::Path;
+use std::process::Command;
+
+/// Runs `propsim ARGS` in `dir` (or the current directory): (success, stdout, stderr).
+pub fn propsim_in(dir: Option<&Path>, args: &[&str]) -> (bool, String, String) {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_propsim"));
+    if let Some(d) = dir {
+        cmd.current_dir(d);
+    }
+    let out = cmd.args(args).output().expect("the binary runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into(),
+        String::from_utf8_lossy(&out.stderr).into(),
+    )
+}
+
+/// Runs `propsim ARGS`: (success, stdout, stderr).
+pub fn propsim(args: &[&str]) -> (bool, String, String) {
+    propsim_in(None, args)
+}
+
+/// Asserts a clean failure of a finished run: non-zero exit, no panic, and exactly one
+/// non-warning line on stderr, an `error:` line containing every needle. Returns that line.
+pub fn check_one_line_error(args: &[&str], ok: bool, err: &str, needles: &[&str]) -> String {
+    assert!(!ok, "{args:?} should fail");
+    assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
+    let lines: Vec<&str> =
+        err.lines().filter(|l| !l.trim().is_empty() && !l.starts_with("warning:")).collect();
+    assert_eq!(lines.len(), 1, "{args:?}: one error line expected, got: {err}");
+    assert!(lines[0].starts_with("error:"), "{err}");
+    for n in needles {
+        assert!(lines[0].contains(n), "{args:?}: error should mention \"{n}\": {}", lines[0]);
+    }
+    lines[0].to_string()
+}
+
+/// Runs `propsim ARGS` and asserts a clean one-line error mentioning every needle.
+pub fn assert_clean_error(args: &[&str], needles: &[&str]) -> String {
+    let (ok, _, err) = propsim(args);
+    check_one_line_error(args, ok, &err, needles)
+}
