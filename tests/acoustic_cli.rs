@@ -31,7 +31,7 @@ fn outputs_are_complete_and_identical_for_one_and_two_threads() {
     for f in ["metrics.csv", "histogram.csv", "ir_S1_R1.wav"] {
         assert_eq!(read(&a.join(f)), read(&b.join(f)), "{f} differs between 1 and 2 threads");
     }
-    for f in ["summary.json", "ir_S1_R1.png", "decay_S1_R1.png"] {
+    for f in ["acoustic.json", "ir_S1_R1.png", "decay_S1_R1.png"] {
         assert!(a.join(f).exists(), "{f} missing");
     }
     let metrics = String::from_utf8(read(&a.join("metrics.csv"))).unwrap();

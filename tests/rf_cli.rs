@@ -68,7 +68,7 @@ fn coverage_csv_is_byte_identical_for_one_and_two_threads_and_well_formed() {
     let png = std::fs::read(a.join("coverage.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(a.join("summary.json")).unwrap()).unwrap();
+        serde_json::from_str(&std::fs::read_to_string(a.join("coverage.json")).unwrap()).unwrap();
     assert_eq!(json["config"]["rays"], 300000);
     assert_eq!(json["config"]["transmitters"][0]["freq_ghz"], 3.5);
     assert!(json["estimator"].as_str().unwrap().contains("power (incoherent) sum"));

@@ -358,7 +358,7 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let traced_s = started.elapsed().as_secs_f64();
     let written = write_outputs(&args.out, &result, result.volume_m3, settings.seed)?;
-    let summary_path = args.out.join("summary.json");
+    let summary_path = args.out.join("acoustic.json");
     let json = serde_json::json!({
         "propsim_version": env!("CARGO_PKG_VERSION"),
         "scene": scene_label,

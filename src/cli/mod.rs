@@ -9,6 +9,7 @@ pub mod info;
 pub mod progress;
 pub mod render;
 pub mod rf;
+pub mod run;
 
 use std::path::PathBuf;
 
@@ -30,12 +31,15 @@ pub enum Command {
     /// Geometry and material report: triangles, bounds, areas, volume, closedness, and
     /// whether every source and receiver is inside the room.
     Info(info::InfoArgs),
+    /// The picture, the sound and the radio coverage of one scene in one directory, with a
+    /// summary sheet (summary.png) and a manifest (manifest.json).
+    Run(run::RunArgs),
     /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
     /// for every source-receiver pair, plus Sabine and Eyring estimates.
     Acoustic(acoustic::AcousticArgs),
     /// Render an image (PNG or EXR) of a scene with a chosen integrator.
     Render(render::RenderArgs),
-    /// Radio coverage map (coverage.csv, coverage.png, summary.json) and coherent point
+    /// Radio coverage map (coverage.csv, coverage.png, coverage.json) and coherent point
     /// receivers, with ITU-R P.2040 materials.
     Rf(Box<rf::RfArgs>),
     /// Benchmarks.
@@ -65,6 +69,7 @@ pub fn run(cli: Cli) -> anyhow::Result<()> {
     }
     match cli.command {
         Command::Info(args) => info::run(&args),
+        Command::Run(args) => run::run(&args),
         Command::Acoustic(args) => acoustic::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),

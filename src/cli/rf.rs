@@ -9,7 +9,7 @@ use clap::Args;
 
 use crate::rf::output::{summary, write_coverage_csv, write_summary_json};
 use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
-use crate::rf::{Overrides, RfConfig, simulate};
+use crate::rf::{Overrides, RfConfig, RfResult, simulate};
 use crate::scene::{self, LoadOptions, World};
 
 fn parse_xy(s: &str) -> Result<[f64; 2], String> {
@@ -130,7 +130,40 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
     Some(super::progress::bar(total, "rays"))
 }
 
-/// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and summary.json.
+/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`.
+pub fn write_outputs<'a>(
+    out: &std::path::Path,
+    scene_name: &str,
+    world: &World,
+    config: &'a RfConfig,
+    result: &'a RfResult,
+    png_width: u32,
+) -> anyhow::Result<crate::rf::output::Summary<'a>> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create directory", out.display()))?;
+    let csv = out.join("coverage.csv");
+    let png = out.join("coverage.png");
+    let json = out.join("coverage.json");
+    write_coverage_csv(&csv, result)?;
+    let feet = footprints(&world.scene.mesh, config.grid.height_m);
+    let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
+    let t0 = &config.transmitters[0];
+    let title = format!(
+        "{} | {} at {:.3} GHz | {} rays, depth {} | h = {} m",
+        scene_name, t0.name, t0.freq_ghz, config.rays, config.max_depth, config.grid.height_m
+    );
+    write_coverage_png(
+        &png,
+        &result.coverage,
+        &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
+        png_width,
+    )?;
+    let outputs = [&csv, &png, &json].iter().map(|p| p.display().to_string()).collect();
+    let s = summary(scene_name, config, result, outputs);
+    write_summary_json(&json, &s)?;
+    Ok(s)
+}
+
+/// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and coverage.json.
 pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     let world = load_world(&args.scene, &args.materials)?;
     let scene_name = args.scene.display().to_string();
@@ -146,28 +179,9 @@ pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     if let Some(pb) = &pb {
         pb.finish_and_clear();
     }
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("{}: cannot create directory", args.out.display()))?;
-    let csv = args.out.join("coverage.csv");
-    let png = args.out.join("coverage.png");
-    let json = args.out.join("summary.json");
-    write_coverage_csv(&csv, &result)?;
-    let feet = footprints(&world.scene.mesh, config.grid.height_m);
-    let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
-    let t0 = &config.transmitters[0];
-    let title = format!(
-        "{} | {} at {:.3} GHz | {} rays, depth {} | h = {} m",
-        scene_name, t0.name, t0.freq_ghz, config.rays, config.max_depth, config.grid.height_m
-    );
-    write_coverage_png(
-        &png,
-        &result.coverage,
-        &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
-        args.png_width,
-    )?;
-    let outputs = [&csv, &png, &json].iter().map(|p| p.display().to_string()).collect();
-    let s = summary(&scene_name, &config, &result, outputs);
-    write_summary_json(&json, &s)?;
+    let s = write_outputs(&args.out, &scene_name, &world, &config, &result, args.png_width)?;
+    let (csv, png, json) =
+        (args.out.join("coverage.csv"), args.out.join("coverage.png"), args.out.join("coverage.json"));
     println!(
         "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s ({:.2} Mrays/s)",
         scene_name,

@@ -23,6 +23,16 @@ macro_rules! room_file {
 /// Every built-in scene.
 pub const BUILTIN_SCENES: &[BuiltinScene] = &[
     BuiltinScene {
+        name: "showcase",
+        description: "L-shaped room with glass and chrome spheres, a loudspeaker, two listeners and a 3.5 GHz access point",
+        main: "showcase/scene.toml",
+        files: &[
+            ("showcase/scene.toml", include_str!("../../rooms/showcase/scene.toml")),
+            ("l_room/l_room.obj", include_str!("../../rooms/l_room/l_room.obj")),
+            ("l_room/l_room.mtl", include_str!("../../rooms/l_room/l_room.mtl")),
+        ],
+    },
+    BuiltinScene {
         name: "shoebox",
         description: "10 x 8 x 3 m room, absorption 0.1, scattering 0.5: the reverberation test case",
         main: "scene.toml",
@@ -89,6 +99,9 @@ pub fn materialize(name: &str) -> Result<(tempfile::TempDir, PathBuf), SceneErro
         .map_err(|e| SceneError::io(std::env::temp_dir(), &e))?;
     for (file, text) in scene.files {
         let p = dir.path().join(file);
+        if let Some(parent) = p.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| SceneError::io(parent, &e))?;
+        }
         std::fs::write(&p, text).map_err(|e| SceneError::io(&p, &e))?;
     }
     let main = dir.path().join(scene.main);
