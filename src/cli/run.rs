@@ -61,39 +61,17 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     for m in &args.materials {
         materials.extend(["--materials".to_string(), m.display().to_string()]);
     }
-    let with = |mut v: Vec<String>| {
+    // `propsim CMD SCENE OUTPUT_FLAG OUTPUT --seed S [--materials F]...`
+    let sub = |cmd: &str, out_flag: &str, out: &str| {
+        let mut v: Vec<String> =
+            ["propsim", cmd, &scene_arg, out_flag, out, "--seed", &seed].map(String::from).to_vec();
         v.extend(materials.iter().cloned());
         v
     };
-    let s = |x: &str| x.to_string();
     let render_png = args.out.join("render.png");
-    let render_s = step(&with(vec![
-        s("propsim"),
-        s("render"),
-        scene_arg.clone(),
-        s("-o"),
-        render_png.display().to_string(),
-        s("--seed"),
-        seed.clone(),
-    ]))?;
-    let acoustic_s = step(&with(vec![
-        s("propsim"),
-        s("acoustic"),
-        scene_arg.clone(),
-        s("--out"),
-        out.clone(),
-        s("--seed"),
-        seed.clone(),
-    ]))?;
-    let rf_s = step(&with(vec![
-        s("propsim"),
-        s("rf"),
-        scene_arg.clone(),
-        s("--out"),
-        out.clone(),
-        s("--seed"),
-        seed.clone(),
-    ]))?;
+    let render_s = step(&sub("render", "-o", &render_png.display().to_string()))?;
+    let acoustic_s = step(&sub("acoustic", "--out", &out))?;
+    let rf_s = step(&sub("rf", "--out", &out))?;
 
     // The summary sheet: render, coverage map, first pair's impulse response and decay curves.
     let acoustic = desc.acoustic.clone().unwrap_or_default();

@@ -137,12 +137,8 @@ impl MeshBvh {
         hit.then_some((rh.primitive_id as usize, rh.t))
     }
 
-    fn make_hit(&self, slot: usize, t: f32, ray: &Ray) -> Hit {
-        let tri = &self.tris[slot];
-        let uv = tri
-            .intersect_sheared(&RayShear::new(ray.origin, ray.dir), f32::NEG_INFINITY, f32::INFINITY)
-            .map_or(Vec2::ZERO, |(_, uv)| uv);
-        let normal = tri.normal();
+    fn make_hit(&self, slot: usize, t: f32, uv: Vec2, ray: &Ray) -> Hit {
+        let normal = self.tris[slot].normal();
         Hit {
             t,
             point: ray.at(t),
@@ -177,18 +173,7 @@ impl MeshBvh {
         if !hit {
             return None;
         }
-        let slot = rh.primitive_id as usize;
-        let normal = tris[slot].normal();
-        Some(Hit {
-            t: rh.t,
-            point: ray.at(rh.t),
-            normal,
-            barycentric: best_uv,
-            primitive: self.mesh_index[slot],
-            kind: PrimitiveKind::Triangle,
-            surface: self.surface[slot],
-            front_face: normal.dot(ray.dir) < 0.0,
-        })
+        Some(self.make_hit(rh.primitive_id as usize, rh.t, best_uv, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
@@ -213,9 +198,8 @@ impl MeshBvh {
         }
         let shear = RayShear::new(ray.origin, ray.dir);
         self.bvh.ray_traverse_anyhit(to_bvh_ray(ray), |r, id| {
-            let t = self.tris[id].intersect_t(&shear, r.tmin, r.tmax);
-            if t.is_finite() {
-                f(self.make_hit(id, t, ray));
+            if let Some((t, uv)) = self.tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
+                f(self.make_hit(id, t, uv, ray));
             }
         });
     }
