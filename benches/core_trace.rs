@@ -5,21 +5,12 @@
 use std::time::Instant;
 
 use propsim::cli::bench_trace::{
-    coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, trace_figures,
+    coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, timed_builds, trace_figures,
 };
-use propsim::core::{Accel, BuildQuality};
 
 fn main() {
     let mesh = terrain(1_000_000);
-    let mut builds = Vec::new();
-    let mut accel = None;
-    for _ in 0..3 {
-        drop(accel.take());
-        let t = Instant::now();
-        accel = Some(Accel::build(&mesh, Vec::new(), BuildQuality::default()));
-        builds.push(t.elapsed().as_secs_f64());
-    }
-    let accel = accel.expect("built");
+    let (accel, builds) = timed_builds(&mesh, 3);
     println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
     println!("build: {:.3} s (median of 3)", median(builds));
     for (name, rays) in [("coherent", coherent_rays(1 << 20)), ("incoherent", incoherent_rays(1 << 20, 1))] {

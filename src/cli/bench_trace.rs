@@ -172,6 +172,22 @@ pub fn peak_rss_mb() -> Option<f64> {
     Some(kb / 1024.0)
 }
 
+/// Builds the BVH `count` times (at least once), dropping each before the next so peak memory
+/// holds one; returns the last build and every build time in seconds.
+pub fn timed_builds(mesh: &TriangleMesh, count: usize) -> (Accel, Vec<f64>) {
+    let mut builds = Vec::new();
+    let mut t = Instant::now();
+    let mut accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+    builds.push(t.elapsed().as_secs_f64());
+    for _ in 1..count {
+        drop(accel);
+        t = Instant::now();
+        accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+        builds.push(t.elapsed().as_secs_f64());
+    }
+    (accel, builds)
+}
+
 /// Result of tracing one ray set.
 pub struct TraceFigures {
     pub closest_mrays_s: f64,
@@ -259,15 +275,7 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
     }
     println!("mesh:        {label}, {} triangles", mesh.triangle_count());
     println!("threads:     {}", rayon::current_num_threads());
-    let mut builds = Vec::new();
-    let mut accel = None;
-    for _ in 0..args.repeat.clamp(1, 3) {
-        drop(accel.take());
-        let t = Instant::now();
-        accel = Some(Accel::build(&mesh, Vec::new(), BuildQuality::default()));
-        builds.push(t.elapsed().as_secs_f64());
-    }
-    let accel = accel.expect("built at least once");
+    let (accel, builds) = timed_builds(&mesh, args.repeat.clamp(1, 3));
     println!(
         "build:       {:.3} s (median of {}), BVH + triangles {:.1} MB",
         median(builds.clone()),

@@ -7,11 +7,14 @@
 //!
 //! ```no_run
 //! use propsim::render::{self, RenderSettings};
-//! let scene = propsim::scene::load("builtin:cornell_box_classic".as_ref(), &Default::default()).unwrap();
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let scene = propsim::scene::load("builtin:cornell_box_classic".as_ref(), &Default::default())?;
 //! let world = propsim::scene::World::build(scene);
 //! let settings = RenderSettings { spp: 16, ..RenderSettings::default() };
-//! let image = render::render_world(&world, &settings).unwrap();
-//! image.film.write("out/cornell.png".as_ref()).unwrap();
+//! let image = render::render_world(&world, &settings)?;
+//! image.film.write("out/cornell.png".as_ref())?;
+//! # Ok(())
+//! # }
 //! ```
 
 pub mod bsdf;

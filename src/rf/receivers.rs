@@ -143,7 +143,7 @@ fn search(
     if depth_left == 0 {
         return;
     }
-    let last_image = *images.last().expect("the source");
+    let Some(&last_image) = images.last() else { return };
     for (j, plane) in planes.iter().enumerate() {
         if seq.last() == Some(&j) || (plane.normal.dot(last_image) - plane.offset).abs() < 1e-6 {
             continue;
