@@ -3,6 +3,8 @@ use std::process::ExitCode;
 use clap::Parser;
 
 fn main() -> ExitCode {
+    // `propsim ... | head` ends quietly, like other Unix tools, instead of panicking on EPIPE.
+    sigpipe::reset();
     let cli = match propsim::cli::Cli::try_parse() {
         Ok(cli) => cli,
         // Usage errors on one line, like every other error; help and version print as usual.
