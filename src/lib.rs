@@ -5,6 +5,7 @@
 pub mod acoustic;
 pub mod cli;
 pub mod core;
+pub mod dist;
 pub mod io;
 pub mod render;
 pub mod rf;

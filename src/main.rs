@@ -21,10 +21,21 @@ fn main() -> ExitCode {
         }
         Err(e) => e.exit(),
     };
-    match propsim::cli::run(cli) {
-        Ok(()) => ExitCode::SUCCESS,
+    // One process, or this process's place in an MPI job (`--features mpi`).
+    let cluster = match propsim::dist::Cluster::from_environment() {
+        Ok(c) => c,
         Err(e) => {
             eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            return ExitCode::FAILURE;
+        }
+    };
+    match propsim::cli::run(cli, &cluster) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            // Every process of a job sees the same inputs and fails alike: rank 0 reports.
+            if cluster.is_root() {
+                eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            }
             ExitCode::FAILURE
         }
     }

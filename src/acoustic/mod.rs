@@ -11,4 +11,6 @@ pub mod simulate;
 pub mod tracer;
 
 pub use air::Air;
-pub use simulate::{AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, simulate};
+pub use simulate::{
+    AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, simulate, simulate_on,
+};

@@ -10,7 +10,9 @@ use super::metrics::{BandMetrics, band_metrics};
 use super::room::reverberation_times;
 use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
 use crate::core::Sphere;
-use crate::core::launcher::{Launch, LaunchPattern, launch};
+use crate::core::fixed::{add_fixed, from_fixed};
+use crate::core::launcher::{Launch, LaunchPattern, launch_share};
+use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
 
@@ -148,6 +150,21 @@ pub fn simulate(
     settings: &AcousticSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<AcousticResult, String> {
+    simulate_on(&Cluster::solo(), world, sources, receivers, settings, progress)?
+        .ok_or_else(|| "a single process returned no result".into())
+}
+
+/// [`simulate`] as one process of `cluster`: each traces its share of every source's rays,
+/// the histograms are summed exactly on rank 0, and rank 0 alone adds the image sources and
+/// returns the result (`None` elsewhere). The result is the same for any number of processes.
+pub fn simulate_on(
+    cluster: &Cluster,
+    world: &World,
+    sources: &[SourceSpec],
+    receivers: &[ReceiverSpec],
+    settings: &AcousticSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Option<AcousticResult>, String> {
     settings.air.validate()?;
     if sources.is_empty() || receivers.is_empty() {
         return Err("room acoustics needs at least one source and one receiver".into());
@@ -235,16 +252,32 @@ pub fn simulate(
             max_reflections: u32::MAX,
             max_path_m: prop.max_path_m,
         };
-        let record: TraceRecord = launch(&world.accel, &prop, &launch_spec, progress);
-        escaped += record.escaped.iter().sum::<f64>() / BAND_COUNT as f64;
-
-        let mut histograms = vec![vec![[0.0f64; BAND_COUNT]; bins]; receivers.len()];
+        let record: TraceRecord = launch_share(&world.accel, &prop, &launch_spec, cluster.share(), progress);
+        // Fixed-point sums (of the energy per ray) are exact in any order, so every split
+        // of the rays over processes and threads gives the same histograms to the last bit.
+        let unit = f64::from(prop.ray_energy_j);
+        let mut fixed = vec![0u128; receivers.len() * bins * BAND_COUNT];
         for d in &record.detections {
-            let h = &mut histograms[d.receiver as usize][d.bin as usize];
-            for (acc, e) in h.iter_mut().zip(d.energy) {
-                *acc += f64::from(e);
+            let at = (d.receiver as usize * bins + d.bin as usize) * BAND_COUNT;
+            for (slot, e) in fixed[at..at + BAND_COUNT].iter_mut().zip(d.energy) {
+                add_fixed(slot, f64::from(e), unit);
             }
         }
+        drop(record.detections);
+        let mut escaped_fixed = record.escaped.to_vec();
+        cluster.sum_u128(&mut fixed);
+        cluster.sum_u128(&mut escaped_fixed);
+        if !cluster.is_root() {
+            continue;
+        }
+        escaped += escaped_fixed.iter().map(|&e| from_fixed(e, unit)).sum::<f64>() / BAND_COUNT as f64;
+        let mut histograms: Vec<Vec<BandEnergies>> = fixed
+            .chunks_exact(bins * BAND_COUNT)
+            .map(|r| {
+                r.chunks_exact(BAND_COUNT).map(|b| std::array::from_fn(|k| from_fixed(b[k], unit))).collect()
+            })
+            .collect();
+        drop(fixed);
         // Image sources (the direct sound is order 0).
         let src = Vec3::from(source.position);
         let mut images =
@@ -293,7 +326,10 @@ pub fn simulate(
             });
         }
     }
-    Ok(AcousticResult {
+    if !cluster.is_root() {
+        return Ok(None);
+    }
+    Ok(Some(AcousticResult {
         bands_hz: OCTAVE_BANDS_HZ,
         volume_m3,
         surface_m2: report.total_area_m2,
@@ -307,5 +343,5 @@ pub fn simulate(
         pairs,
         escaped_energy_fraction: escaped / sources.len() as f64,
         settings: settings.clone(),
-    })
+    }))
 }

@@ -4,6 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::core::fixed::add_fixed;
 use crate::core::hit::Hit;
 use crate::core::launcher::{Bounce, Propagation};
 use crate::core::ray::Ray;
@@ -37,11 +38,12 @@ pub struct Detection {
 }
 
 /// What a block of rays produces: detections in trace order, and the energy that escaped
-/// the scene through holes (J, per band, air losses included).
+/// the scene through holes (per band, air losses included, in fixed point of the launch
+/// energy per ray so that sums are exact in any order: see [`crate::core::fixed`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TraceRecord {
     pub detections: Vec<Detection>,
-    pub escaped: [f64; BAND_COUNT],
+    pub escaped: [u128; BAND_COUNT],
     pub rays_escaped: u64,
 }
 
@@ -84,7 +86,7 @@ impl Propagation for SoundPropagation<'_> {
     fn merge(&self, into: &mut TraceRecord, other: TraceRecord) {
         into.detections.extend(other.detections);
         for (a, b) in into.escaped.iter_mut().zip(other.escaped) {
-            *a += b;
+            *a = a.saturating_add(b);
         }
         into.rays_escaped += other.rays_escaped;
     }
@@ -112,7 +114,8 @@ impl Propagation for SoundPropagation<'_> {
             // Flew out of the scene's bounds without a hit: it left through a hole.
             acc.rays_escaped += 1;
             for b in 0..BAND_COUNT {
-                acc.escaped[b] += f64::from(ray_state.energy[b] * self.air_factor(b, path_before_m));
+                let e = f64::from(ray_state.energy[b] * self.air_factor(b, path_before_m));
+                add_fixed(&mut acc.escaped[b], e, f64::from(self.ray_energy_j));
             }
             return;
         }

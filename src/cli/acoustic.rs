@@ -9,9 +9,10 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::acoustic::impulse_response::{SAMPLE_RATE_HZ, synthesize};
-use crate::acoustic::{AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate};
+use crate::acoustic::{AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate_on};
 use crate::core::Ray;
 use crate::core::rng::{stream, uniform};
+use crate::dist::Cluster;
 use crate::io::plot::{Series, line_chart};
 use crate::io::{file_stem, wav};
 use crate::scene::{self, LoadOptions, World};
@@ -260,16 +261,16 @@ pub fn summary_text(r: &AcousticResult) -> String {
     o
 }
 
-pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
+pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
     let scene_label = args.scene.display().to_string();
     let world = World::build(scene);
     if world.report.over_shared_edges > 0 {
-        eprintln!(
+        tell!(
             "warning: {scene_label}: {} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface",
             world.report.over_shared_edges
         );
@@ -320,14 +321,14 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
         let p = place_inside(&world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a source 0.5 m from every surface")
         })?;
-        eprintln!("note: no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        tell!("note: no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
         sources.push(SourceSpec { name: "S1".into(), position: p.to_array(), power_w: 1.0 });
     }
     if receivers.is_empty() {
         let p = place_inside(&world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a receiver 0.5 m from every surface")
         })?;
-        eprintln!("note: no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        tell!("note: no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
         receivers.push(ReceiverSpec {
             name: "R1".into(),
             position: p.to_array(),
@@ -353,9 +354,11 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
     };
     anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);
     let bar = super::progress::bar(settings.rays * sources.len() as u64, "rays");
-    let result = simulate(&world, &sources, &receivers, &settings, &|n| bar.inc(n))
+    let result = simulate_on(cluster, &world, &sources, &receivers, &settings, &|n| bar.inc(n))
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     bar.finish_and_clear();
+    // Only rank 0 holds the result and writes.
+    let Some(result) = result else { return Ok(()) };
     let traced_s = started.elapsed().as_secs_f64();
     let written = write_outputs(&args.out, &result, result.volume_m3, settings.seed)?;
     let summary_path = args.out.join("acoustic.json");
@@ -367,6 +370,8 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
         "result": result,
         "wall_time_s": started.elapsed().as_secs_f64(),
         "trace_time_s": traced_s,
+        "processes": cluster.size(),
+        "reduce_time_s": cluster.reduce_cost().0,
         "notes": {
             "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
             "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",
@@ -375,8 +380,8 @@ pub fn run(args: &AcousticArgs) -> anyhow::Result<()> {
     });
     std::fs::write(&summary_path, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("{}: cannot write", summary_path.display()))?;
-    print!("{}", summary_text(&result));
-    println!(
+    say!("{}", summary_text(&result).trim_end());
+    say!(
         "wrote {} files to {} ({} rays/source, {:.2} s)",
         written.len() + 1,
         args.out.display(),

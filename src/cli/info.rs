@@ -202,18 +202,19 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     let options = LoadOptions { materials_files: args.materials.clone() };
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
     let world = World::build(scene);
     let r = report(&world, &args.points);
     if r.over_shared_edges > 0 {
-        eprintln!(
+        tell!(
             "warning: {}: {} edges are shared by more than two triangles (an internal sheet or T-join)",
-            r.obj, r.over_shared_edges
+            r.obj,
+            r.over_shared_edges
         );
     }
     if args.json {
-        println!("{}", serde_json::to_string_pretty(&r)?);
+        say!("{}", serde_json::to_string_pretty(&r)?);
     } else {
         print!("{}", format_report(&r));
     }

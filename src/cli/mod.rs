@@ -1,5 +1,27 @@
 //! The `propsim` command line: argument parsing and dispatch. Each subcommand lives in its
 //! own file; all report errors as one line naming the file and the problem.
+//!
+//! Under MPI every process runs the same command on its share of the work; only rank 0
+//! prints ([`say!`], [`tell!`], progress bars) and writes outputs.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+
+static SPEAKS: AtomicBool = AtomicBool::new(true);
+
+/// Whether this process prints: a single process, or rank 0 of an MPI job.
+pub fn speaks() -> bool {
+    SPEAKS.load(Ordering::Relaxed)
+}
+
+/// `println!` on the process that speaks for the job.
+macro_rules! say {
+    ($($t:tt)*) => { if $crate::cli::speaks() { println!($($t)*) } };
+}
+
+/// `eprintln!` on the process that speaks for the job.
+macro_rules! tell {
+    ($($t:tt)*) => { if $crate::cli::speaks() { eprintln!($($t)*) } };
+}
 
 pub mod acoustic;
 pub mod bench_acoustic;
@@ -12,6 +34,8 @@ pub mod rf;
 pub mod run;
 
 use std::path::PathBuf;
+
+use crate::dist::Cluster;
 
 use clap::{Parser, Subcommand};
 
@@ -61,21 +85,37 @@ pub enum BenchCommand {
     Rf(rf::BenchRfArgs),
 }
 
-/// Runs the command line; the error, if any, is for `main` to print on one line.
-pub fn run(cli: Cli) -> anyhow::Result<()> {
-    if let Some(n) = cli.threads {
-        anyhow::ensure!((1..=4096).contains(&n), "--threads {n}: must be between 1 and 4096");
+/// Runs the command line as one process of `cluster`; the error, if any, is for `main` to
+/// print on one line (on rank 0).
+pub fn run(cli: Cli, cluster: &Cluster) -> anyhow::Result<()> {
+    SPEAKS.store(cluster.is_root(), Ordering::Relaxed);
+    let threads = match cli.threads {
+        Some(n) => {
+            anyhow::ensure!((1..=4096).contains(&n), "--threads {n}: must be between 1 and 4096");
+            Some(n)
+        }
+        // Processes of one job on one machine share its cores instead of each taking all.
+        None => (cluster.size() > 1).then(|| cluster.default_threads()),
+    };
+    if let Some(n) = threads {
         rayon::ThreadPoolBuilder::new().num_threads(n).build_global()?;
     }
-    match cli.command {
+    dispatch(cli.command, cluster)
+}
+
+/// Runs one command (without touching the thread pool, so `run` can call it again).
+pub fn dispatch(command: Command, cluster: &Cluster) -> anyhow::Result<()> {
+    match command {
+        Command::Acoustic(args) => acoustic::run(&args, cluster),
+        Command::Render(args) => render::run(&args, cluster),
+        Command::Rf(args) => rf::run(&args, cluster),
+        Command::Run(args) => run::run(&args, cluster),
+        // Reports and benchmarks are not split: rank 0 does them alone.
+        _ if !cluster.is_root() => Ok(()),
         Command::Info(args) => info::run(&args),
-        Command::Run(args) => run::run(&args),
-        Command::Acoustic(args) => acoustic::run(&args),
-        Command::Render(args) => render::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
         Command::Bench(BenchCommand::Acoustic(args)) => bench_acoustic::run(&args),
         Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
-        Command::Rf(args) => rf::run(&args),
         Command::Bench(BenchCommand::Rf(args)) => rf::bench(&args),
     }
 }

@@ -1,4 +1,5 @@
-//! Progress bars: drawn on a terminal, silent when stderr is piped or redirected.
+//! Progress bars: drawn on a terminal, silent when stderr is piped or redirected, and on
+//! every MPI rank but 0.
 
 use std::io::IsTerminal;
 
@@ -6,7 +7,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 
 /// A bar over `total` units with ETA, or a hidden one when stderr is not a terminal.
 pub fn bar(total: u64, what: &str) -> ProgressBar {
-    if !std::io::stderr().is_terminal() {
+    if !std::io::stderr().is_terminal() || !super::speaks() {
         return ProgressBar::hidden();
     }
     let pb = ProgressBar::new(total);

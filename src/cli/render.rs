@@ -6,8 +6,9 @@ use anyhow::{Context, anyhow};
 use clap::Args;
 use glam::Vec3;
 
+use crate::dist::Cluster;
 use crate::render::film::ImageFormat;
-use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render};
+use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render, render_on};
 use crate::scene::{self, LoadOptions, World};
 
 /// The scene `propsim render` uses when given none.
@@ -126,22 +127,26 @@ pub fn render_with_progress(
     Ok(out)
 }
 
-pub fn run(args: &RenderArgs) -> anyhow::Result<()> {
+pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     // Check the output name before the (possibly long) render.
     ImageFormat::from_path(&args.output)?;
     let options = LoadOptions { materials_files: args.materials.clone() };
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
     let world = World::build(scene);
     let s = settings(args, &world).with_context(|| args.scene.display().to_string())?;
     let cam = camera(args, &world, s.width as f32 / s.height as f32)
         .with_context(|| args.scene.display().to_string())?;
     let rs = RenderScene::new(&world);
-    let out = render_with_progress(&rs, &cam, &s)?;
+    let bar = super::progress::bar(u64::from(s.width) * u64::from(s.height), "rendering");
+    let out = render_on(cluster, &rs, &cam, &s, &|n| bar.inc(n)).map_err(|e| anyhow!("{e}"))?;
+    bar.finish_and_clear();
+    // Only rank 0 holds the image and writes.
+    let Some(out) = out else { return Ok(()) };
     out.film.write(&args.output)?;
-    println!("{}", summary(&args.output, &s, &out));
+    say!("{}", summary(&args.output, &s, &out));
     Ok(())
 }
 

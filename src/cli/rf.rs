@@ -7,9 +7,10 @@ use std::time::Instant;
 use anyhow::Context as _;
 use clap::Args;
 
+use crate::dist::Cluster;
 use crate::rf::output::{summary, write_coverage_csv, write_summary_json};
 use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
-use crate::rf::{Overrides, RfConfig, RfResult, simulate};
+use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
 use crate::scene::{self, LoadOptions, World};
 
 fn parse_xy(s: &str) -> Result<[f64; 2], String> {
@@ -120,7 +121,7 @@ impl RfArgs {
 fn load_world(scene_path: &std::path::Path, materials: &[PathBuf]) -> anyhow::Result<World> {
     let scene = scene::load(scene_path, &LoadOptions { materials_files: materials.to_vec() })?;
     for w in &scene.warnings {
-        eprintln!("warning: {w}");
+        tell!("warning: {w}");
     }
     Ok(World::build(scene))
 }
@@ -164,13 +165,13 @@ pub fn write_outputs<'a>(
 }
 
 /// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and coverage.json.
-pub fn run(args: &RfArgs) -> anyhow::Result<()> {
+pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let world = load_world(&args.scene, &args.materials)?;
     let scene_name = args.scene.display().to_string();
     let config =
         RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
     let pb = progress_bar(config.rays * config.transmitters.len() as u64);
-    let result = simulate(&world, &config, &|n| {
+    let result = simulate_on(cluster, &world, &config, &|n| {
         if let Some(pb) = &pb {
             pb.inc(n);
         }
@@ -179,10 +180,12 @@ pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     if let Some(pb) = &pb {
         pb.finish_and_clear();
     }
+    // Only rank 0 holds the map and writes.
+    let Some(result) = result else { return Ok(()) };
     let s = write_outputs(&args.out, &scene_name, &world, &config, &result, args.png_width)?;
     let (csv, png, json) =
         (args.out.join("coverage.csv"), args.out.join("coverage.png"), args.out.join("coverage.json"));
-    println!(
+    say!(
         "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s ({:.2} Mrays/s)",
         scene_name,
         config.grid.nx,
@@ -196,7 +199,7 @@ pub fn run(args: &RfArgs) -> anyhow::Result<()> {
     );
     for r in &s.receivers {
         let f = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.2} dB"));
-        println!(
+        say!(
             "  {} -> {}: {} paths, coherent {}, incoherent {}, grid cell {}",
             r.transmitter,
             r.name,
@@ -206,7 +209,7 @@ pub fn run(args: &RfArgs) -> anyhow::Result<()> {
             f(r.grid_path_gain_db)
         );
     }
-    println!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    say!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
     Ok(())
 }
 
@@ -272,7 +275,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         reached = r.coverage.paths.iter().filter(|&&p| p > 0).count();
     }
     let wall = median(walls.clone());
-    println!(
+    say!(
         "bench rf: {name}, {} x {} cells of {} m, {} rays, depth {}, {} threads",
         config.grid.nx,
         config.grid.ny,
@@ -281,7 +284,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         config.max_depth,
         rayon::current_num_threads()
     );
-    println!(
+    say!(
         "wall time {:.3} s (median of {}; runs {:?}), {:.2} Mrays/s, {} cells reached",
         wall,
         args.repeat,
@@ -291,7 +294,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
     );
     if !cpus.is_empty() {
         let cpu = median(cpus);
-        println!(
+        say!(
             "cpu time {cpu:.2} s (median): {:.2} Mrays per CPU-second; {:.0} % of the threads' time \
              was ours (below 100 % when other processes share the cores)",
             config.rays as f64 / cpu / 1e6,

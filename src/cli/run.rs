@@ -8,6 +8,7 @@ use anyhow::Context as _;
 use clap::{Args, Parser};
 use image::{GenericImage, RgbImage};
 
+use crate::dist::Cluster;
 use crate::io::file_stem;
 use crate::scene::{self, LoadOptions};
 
@@ -28,10 +29,10 @@ pub struct RunArgs {
 
 /// Runs one subcommand through the command-line layer, so `run` uses exactly the same
 /// defaults and checks as the individual commands. Returns its wall time in seconds.
-fn step(args: &[String]) -> anyhow::Result<f64> {
+fn step(args: &[String], cluster: &Cluster) -> anyhow::Result<f64> {
     let t = Instant::now();
     let cli = super::Cli::try_parse_from(args).map_err(|e| anyhow::anyhow!("{}", e.to_string().trim()))?;
-    super::run(cli)?;
+    super::dispatch(cli.command, cluster)?;
     Ok(t.elapsed().as_secs_f64())
 }
 
@@ -48,12 +49,15 @@ fn paste(sheet: &mut RgbImage, path: &Path, cell: (u32, u32), cell_size: (u32, u
     Ok(())
 }
 
-pub fn run(args: &RunArgs) -> anyhow::Result<()> {
+pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     // Load once up front: a bad scene fails before any work, with the usual one-line error.
     let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
     let desc = scene.desc.clone();
-    std::fs::create_dir_all(&args.out).with_context(|| format!("{}: cannot create", args.out.display()))?;
+    if cluster.is_root() {
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("{}: cannot create", args.out.display()))?;
+    }
     let scene_arg = args.scene.display().to_string();
     let out = args.out.display().to_string();
     let seed = args.seed.to_string();
@@ -69,9 +73,12 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         v
     };
     let render_png = args.out.join("render.png");
-    let render_s = step(&sub("render", "-o", &render_png.display().to_string()))?;
-    let acoustic_s = step(&sub("acoustic", "--out", &out))?;
-    let rf_s = step(&sub("rf", "--out", &out))?;
+    let render_s = step(&sub("render", "-o", &render_png.display().to_string()), cluster)?;
+    let acoustic_s = step(&sub("acoustic", "--out", &out), cluster)?;
+    let rf_s = step(&sub("rf", "--out", &out), cluster)?;
+    if !cluster.is_root() {
+        return Ok(());
+    }
 
     // The summary sheet: render, coverage map, first pair's impulse response and decay curves.
     let acoustic = desc.acoustic.clone().unwrap_or_default();
@@ -100,6 +107,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
         "seed": args.seed,
         "materials_files": args.materials,
         "threads": rayon::current_num_threads(),
+        "processes": cluster.size(),
         "parameters": {
             "camera": desc.camera,
             "render": desc.render,
@@ -114,7 +122,7 @@ pub fn run(args: &RunArgs) -> anyhow::Result<()> {
     });
     std::fs::write(&manifest_path, serde_json::to_string_pretty(&manifest)?)
         .with_context(|| format!("{}: cannot write", manifest_path.display()))?;
-    println!(
+    say!(
         "run: render {render_s:.1} s, acoustic {acoustic_s:.1} s, radio {rf_s:.1} s; summary sheet {} and manifest {} ({:.1} s in all)",
         sheet_path.display(),
         manifest_path.display(),

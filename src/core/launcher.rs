@@ -15,6 +15,7 @@ use super::hit::Hit;
 use super::ray::Ray;
 use super::rng::{Rng64, stream, uniform};
 use super::sampling::{fibonacci_sphere, uniform_sphere};
+use super::share::Share;
 
 /// Rays per block: the unit of work and of deterministic merging.
 pub const LAUNCH_BLOCK: usize = 1024;
@@ -175,28 +176,30 @@ pub fn launch<P: Propagation>(
     launch: &Launch,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
-    launch_range(accel, prop, launch, 0..launch.rays.div_ceil(LAUNCH_BLOCK as u64), progress)
+    launch_share(accel, prop, launch, Share::WHOLE, progress)
 }
 
-/// Like [`launch`] for the blocks in `blocks` only (a share of the work, e.g. one MPI rank's).
-pub fn launch_range<P: Propagation>(
+/// Like [`launch`] for `share`'s blocks only (one MPI rank's part: blocks are dealt
+/// round-robin), merged in block order. The accumulators of all shares together hold the
+/// same deposits as one whole launch; they add up to it exactly if the accumulator sums in
+/// fixed point.
+pub fn launch_share<P: Propagation>(
     accel: &Accel,
     prop: &P,
     launch: &Launch,
-    blocks: std::ops::Range<u64>,
+    share: Share,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
     // Blocks run in parallel in groups; each group's results are merged in block order before
     // the next group starts, which bounds memory to a group's accumulators.
-    let group = (rayon::current_num_threads() * 4).max(1) as u64;
+    let group = (rayon::current_num_threads() * 4).max(1);
     let offset = lattice_rotation(launch);
+    let blocks: Vec<u64> = share.units(launch.rays.div_ceil(LAUNCH_BLOCK as u64)).collect();
     let mut total = prop.new_accum();
-    let mut start = blocks.start;
-    while start < blocks.end {
-        let end = (start + group).min(blocks.end);
-        let per_block: Vec<P::Accum> = (start..end)
-            .into_par_iter()
-            .map(|b| {
+    for chunk in blocks.chunks(group) {
+        let per_block: Vec<P::Accum> = chunk
+            .par_iter()
+            .map(|&b| {
                 let mut acc = prop.new_accum();
                 let first = b * LAUNCH_BLOCK as u64;
                 let last = (first + LAUNCH_BLOCK as u64).min(launch.rays);
@@ -210,7 +213,6 @@ pub fn launch_range<P: Propagation>(
         for acc in per_block {
             prop.merge(&mut total, acc);
         }
-        start = end;
     }
     total
 }
@@ -283,5 +285,15 @@ mod tests {
         let mean_free_path = 5000.0 * 100.0 / hits as f64;
         assert!((mean_free_path - 4.0 * 240.0 / 268.0).abs() < 0.1, "{mean_free_path}");
         assert_eq!(run(2), (segments, length, hits));
+        // Three shares hold every ray once: their counts add up to the whole launch's.
+        let mut parts = (0, 0.0, 0);
+        for rank in 0..3 {
+            let share = Share::new(rank, 3).unwrap();
+            let p = launch_share(&accel, &Counter, &launch, share, &|_| {});
+            assert!(p.0 > 0, "share {rank} traced nothing");
+            Counter.merge(&mut parts, p);
+        }
+        assert_eq!((parts.0, parts.2), (segments, hits));
+        assert!((parts.1 - length).abs() < 1e-9 * length);
     }
 }

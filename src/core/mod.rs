@@ -2,12 +2,14 @@
 //! It knows nothing of light, sound or radio.
 
 pub mod accel;
+pub mod fixed;
 pub mod hit;
 pub mod launcher;
 pub mod mesh;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
+pub mod share;
 pub mod spectrum;
 pub mod sphere;
 pub mod triangle;
@@ -16,5 +18,6 @@ pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
 pub use hit::{Hit, PrimitiveKind, SurfaceId};
 pub use mesh::TriangleMesh;
 pub use ray::Ray;
+pub use share::Share;
 pub use sphere::Sphere;
 pub use triangle::TriangleRt;

@@ -37,6 +37,7 @@ use rand::RngCore;
 use crate::core::rng::{Rng64, stream, uniform};
 use crate::core::sampling::{orthonormal_basis, stratified_2d};
 use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
+use crate::dist::Cluster;
 use crate::scene::materials::{OpticalKind, OpticalProps};
 use crate::scene::{Surface, World};
 
@@ -451,7 +452,23 @@ pub fn render(
     settings: &RenderSettings,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<RenderOutput, String> {
+    render_on(&Cluster::solo(), scene, camera, settings, progress)?
+        .ok_or_else(|| "a single process returned no image".into())
+}
+
+/// [`render`] as one process of `cluster`: tiles are dealt round-robin, each process renders
+/// its own, and rank 0 gathers every pixel bit for bit and returns the image (`None`
+/// elsewhere). Pixels draw from their own random streams, so the image is the same for any
+/// number of processes.
+pub fn render_on(
+    cluster: &Cluster,
+    scene: &RenderScene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Option<RenderOutput>, String> {
     settings.validate()?;
+    let share = cluster.share();
     let start = Instant::now();
     let scene_bg;
     let scene = match settings.background {
@@ -471,7 +488,9 @@ pub fn render(
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
         .collect();
-    let done: Vec<(Vec<Vec3>, u64)> = tiles
+    let mine: Vec<(u32, u32)> =
+        tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let done: Vec<(Vec<Vec3>, u64)> = mine
         .par_iter()
         .map(|&(x0, y0)| {
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
@@ -488,7 +507,7 @@ pub fn render(
         .collect();
     let mut film = Film::new(w, h);
     let mut rays = 0;
-    for (&(x0, y0), (px, r)) in tiles.iter().zip(done) {
+    for (&(x0, y0), (px, r)) in mine.iter().zip(done) {
         rays += r;
         let tw = (x0 + TILE).min(w) - x0;
         for (k, p) in px.into_iter().enumerate() {
@@ -496,12 +515,26 @@ pub fn render(
             film.pixels[(y * w + x) as usize] = p;
         }
     }
-    Ok(RenderOutput {
+    if cluster.size() > 1 {
+        // Every pixel belongs to one process; the others hold zeros there.
+        let mut channels: Vec<f32> = film.pixels.iter().flat_map(|p| p.to_array()).collect();
+        cluster.gather_disjoint_f32(&mut channels);
+        let mut total_rays = [rays];
+        cluster.sum_u64(&mut total_rays);
+        if !cluster.is_root() {
+            return Ok(None);
+        }
+        for (p, c) in film.pixels.iter_mut().zip(channels.chunks_exact(3)) {
+            *p = Vec3::new(c[0], c[1], c[2]);
+        }
+        rays = total_rays[0];
+    }
+    Ok(Some(RenderOutput {
         film,
         samples: u64::from(w) * u64::from(h) * u64::from(settings.spp),
         rays,
         seconds: start.elapsed().as_secs_f64(),
-    })
+    }))
 }
 
 /// The camera of a world: the scene's `[camera]`, else an automatic view of the bounds.

@@ -124,12 +124,38 @@ impl CoverageAccumulator {
     /// The average path gain of every cell (linear, 0 where no ray crossed) for a launch of
     /// `rays` rays at `wavelength_m`: `g = S lambda^2 / (4 pi N A)` with `S` the cell's sum.
     pub fn finish(&self, rays: u64, wavelength_m: f64) -> Coverage {
+        self.totals().finish(rays, wavelength_m)
+    }
+
+    /// The raw fixed-point sums and crossing counts, e.g. to add up over processes.
+    pub fn totals(&self) -> CellTotals {
+        CellTotals {
+            spec: self.spec,
+            sum: self.sum.iter().map(|s| s.load(Ordering::Relaxed)).collect(),
+            paths: self.paths.iter().map(|p| p.load(Ordering::Relaxed)).collect(),
+        }
+    }
+}
+
+/// A launch's deposits per cell in fixed point: integer sums, exact in any order.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellTotals {
+    pub spec: GridSpec,
+    /// Sum of `weight / |cos theta|` per cell, scaled by `FIXED_SCALE`.
+    pub sum: Vec<u64>,
+    /// Ray crossings per cell.
+    pub paths: Vec<u32>,
+}
+
+impl CellTotals {
+    /// See [`CoverageAccumulator::finish`].
+    pub fn finish(&self, rays: u64, wavelength_m: f64) -> Coverage {
         let k = wavelength_m * wavelength_m
             / (4.0 * std::f64::consts::PI * rays as f64 * self.spec.cell_area_m2() * FIXED_SCALE);
         Coverage {
             spec: self.spec,
-            path_gain: self.sum.iter().map(|s| s.load(Ordering::Relaxed) as f64 * k).collect(),
-            paths: self.paths.iter().map(|p| p.load(Ordering::Relaxed)).collect(),
+            path_gain: self.sum.iter().map(|&s| s as f64 * k).collect(),
+            paths: self.paths.clone(),
         }
     }
 }

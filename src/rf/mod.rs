@@ -29,6 +29,7 @@ pub use coverage::{Coverage, CoverageAccumulator, GridSpec};
 use glam::DVec3;
 
 use crate::core::launcher::{self, Launch, LaunchPattern};
+use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::itu::itu_lookup;
 use crate::scene::materials::RadioProps;
@@ -131,6 +132,20 @@ pub fn simulate(
     config: &RfConfig,
     progress: &(dyn Fn(u64) + Sync),
 ) -> anyhow::Result<RfResult> {
+    simulate_on(&Cluster::solo(), world, config, progress)?
+        .ok_or_else(|| anyhow::anyhow!("a single process returned no result"))
+}
+
+/// [`simulate`] as one process of `cluster`: each launches its share of every transmitter's
+/// rays, the cells' fixed-point sums are added exactly on rank 0, and rank 0 alone computes
+/// the coherent receivers and returns the result (`None` elsewhere). The result is the same
+/// for any number of processes.
+pub fn simulate_on(
+    cluster: &Cluster,
+    world: &World,
+    config: &RfConfig,
+    progress: &(dyn Fn(u64) + Sync),
+) -> anyhow::Result<Option<RfResult>> {
     let start = std::time::Instant::now();
     let mut coverage = Coverage::empty(config.grid);
     let mut rx_power_mw = vec![0.0; config.grid.cells()];
@@ -159,8 +174,14 @@ pub fn simulate(
                 max_reflections: config.max_depth,
                 max_path_m: config.max_path_m as f32,
             };
-            launcher::launch(&world.accel, &prop, &launch, progress);
-            tx_cov = Some(grid.finish(config.rays, wavelength_m));
+            launcher::launch_share(&world.accel, &prop, &launch, cluster.share(), progress);
+            let mut totals = grid.totals();
+            cluster.sum_u64(&mut totals.sum);
+            cluster.sum_u32(&mut totals.paths);
+            tx_cov = Some(totals.finish(config.rays, wavelength_m));
+        }
+        if !cluster.is_root() {
+            continue;
         }
         let trace_seconds = t0.elapsed().as_secs_f64();
         if let Some(c) = tx_cov {
@@ -209,7 +230,10 @@ pub fn simulate(
             trace_seconds,
         });
     }
-    Ok(RfResult { coverage, rx_power_mw, transmitters, seconds: start.elapsed().as_secs_f64() })
+    if !cluster.is_root() {
+        return Ok(None);
+    }
+    Ok(Some(RfResult { coverage, rx_power_mw, transmitters, seconds: start.elapsed().as_secs_f64() }))
 }
 
 /// A point receiver of the coherent mode.

@@ -1,0 +1,222 @@
+//! Distributed runs for real: installs Open MPI when it is missing, builds propsim with
+//! `--features mpi`, and checks that `mpirun -n 2` and `mpirun -n 3` (an uneven split of
+//! rays, tiles and cells) write byte-identical outputs to a single-process run with the same
+//! seed, for every simulator and for `propsim run`.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+const MANIFEST_DIR: &str = env!("CARGO_MANIFEST_DIR");
+
+/// Debian's packages for building and running against Open MPI (bindgen needs libclang).
+const PACKAGES: [&str; 3] = ["libopenmpi-dev", "openmpi-bin", "libclang-dev"];
+
+fn on_path(program: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {program}")])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+fn has_libclang() -> bool {
+    let found = Command::new("sh")
+        .args(["-c", "ls /usr/lib/llvm-*/lib/libclang*.so* /usr/lib/*/libclang*.so* 2>/dev/null | head -1"])
+        .output()
+        .map(|o| !o.stdout.is_empty());
+    found.unwrap_or(false)
+}
+
+/// Installs Open MPI and libclang with apt-get unless they are there already.
+fn ensure_open_mpi() {
+    if on_path("mpirun") && on_path("mpicc") && has_libclang() {
+        return;
+    }
+    assert!(on_path("apt-get"), "Open MPI is missing and apt-get is not available: install {PACKAGES:?}");
+    let sudo = if on_path("id")
+        && Command::new("id")
+            .arg("-u")
+            .output()
+            .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() != "0")
+    {
+        "sudo "
+    } else {
+        ""
+    };
+    let script = format!(
+        "{sudo}apt-get update -qq && DEBIAN_FRONTEND=noninteractive {sudo}apt-get install -y -qq --no-install-recommends {}",
+        PACKAGES.join(" ")
+    );
+    let out = Command::new("sh").args(["-c", &script]).output().expect("sh runs");
+    assert!(
+        out.status.success(),
+        "installing {PACKAGES:?} failed: {}",
+        String::from_utf8_lossy(&out.stderr).lines().last().unwrap_or("")
+    );
+    assert!(on_path("mpirun"), "mpirun is still missing after installing {PACKAGES:?}");
+}
+
+/// The propsim binary built with `--features mpi` (in its own target directory, so it does
+/// not wait on the build lock of the `cargo test` that runs this).
+fn mpi_binary() -> &'static Path {
+    static BINARY: OnceLock<PathBuf> = OnceLock::new();
+    BINARY.get_or_init(|| {
+        ensure_open_mpi();
+        let target = Path::new(env!("CARGO_TARGET_TMPDIR")).join("../mpi");
+        let cargo = std::env::var("CARGO").unwrap_or_else(|_| "cargo".into());
+        let out = Command::new(cargo)
+            .current_dir(MANIFEST_DIR)
+            .env("CARGO_TARGET_DIR", &target)
+            .args(["build", "--profile", "ci", "--features", "mpi", "--bin", "propsim"])
+            .output()
+            .expect("cargo runs");
+        assert!(
+            out.status.success(),
+            "cargo build --features mpi failed:\n{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        target.join("ci/propsim")
+    })
+}
+
+/// Runs `propsim ARGS` under `mpirun -n ranks` (or alone for `ranks == 0`) in `dir`.
+fn run(dir: &Path, ranks: u32, args: &[&str]) {
+    let binary = mpi_binary();
+    let mut cmd = if ranks == 0 {
+        Command::new(binary)
+    } else {
+        let mut c = Command::new("mpirun");
+        c.args(["-n", &ranks.to_string(), "--oversubscribe"]).arg(binary);
+        c
+    };
+    let out = cmd
+        .current_dir(dir)
+        .args(args)
+        // CI runs as root in a container: allow it, and use shared memory without ptrace.
+        .env("OMPI_ALLOW_RUN_AS_ROOT", "1")
+        .env("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1")
+        .env("OMPI_MCA_btl_vader_single_copy_mechanism", "none")
+        .env("OMPI_MCA_rmaps_base_oversubscribe", "1")
+        .output()
+        .expect("mpirun runs");
+    assert!(
+        out.status.success(),
+        "{ranks} ranks, propsim {args:?} failed:\n{}\n{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Keys of the JSON summaries that legitimately differ between runs: timings, the process
+/// count and the output paths.
+const VOLATILE_KEYS: [&str; 10] = [
+    "seconds",
+    "rays_per_second",
+    "wall_time_s",
+    "trace_time_s",
+    "reduce_time_s",
+    "trace_seconds",
+    "timings_s",
+    "processes",
+    "threads",
+    "outputs",
+];
+
+fn strip_volatile(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(map) => {
+            for k in VOLATILE_KEYS {
+                map.remove(k);
+            }
+            map.values_mut().for_each(strip_volatile);
+        }
+        serde_json::Value::Array(items) => items.iter_mut().for_each(strip_volatile),
+        _ => {}
+    }
+}
+
+/// Every file in `dir`: bytes, or for JSON files the parsed value without volatile keys.
+fn outputs(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut files = BTreeMap::new();
+    for entry in std::fs::read_dir(dir).expect("output directory exists") {
+        let path = entry.expect("entry").path();
+        let name = path.file_name().expect("name").to_string_lossy().to_string();
+        let bytes = std::fs::read(&path).expect("readable");
+        let bytes = if name.ends_with(".json") {
+            let mut v: serde_json::Value = serde_json::from_slice(&bytes).expect("valid JSON");
+            strip_volatile(&mut v);
+            serde_json::to_vec(&v).expect("serialises")
+        } else {
+            bytes
+        };
+        files.insert(name, bytes);
+    }
+    files
+}
+
+/// Runs `args` (which write into the directory `out`) alone and under 2 and 3 ranks, and
+/// asserts byte-identical outputs.
+fn same_outputs_for_any_rank_count(name: &str, args: &[&str]) {
+    let base = tempfile::tempdir().expect("temp dir");
+    let mut reference: Option<BTreeMap<String, Vec<u8>>> = None;
+    for ranks in [0u32, 2, 3] {
+        let dir = base.path().join(format!("{name}-{ranks}"));
+        std::fs::create_dir_all(dir.join("out")).expect("mkdir");
+        run(&dir, ranks, args);
+        let got = outputs(&dir.join("out"));
+        assert!(!got.is_empty(), "{name}: no outputs");
+        match &reference {
+            None => reference = Some(got),
+            Some(r) => {
+                assert_eq!(r.keys().collect::<Vec<_>>(), got.keys().collect::<Vec<_>>(), "{name}: file sets");
+                for (file, bytes) in r {
+                    assert!(
+                        got[file] == *bytes,
+                        "{name}: out/{file} differs between 1 process and {ranks} ranks"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn mpi_render_is_byte_identical_for_1_2_and_3_ranks() {
+    // 100 x 60 pixels: 7 x 4 = 28 tiles of 16, which 3 ranks cannot split evenly.
+    same_outputs_for_any_rank_count(
+        "render",
+        &[
+            "render",
+            "builtin:cornell_box",
+            "-o",
+            "out/render.png",
+            "--width",
+            "100",
+            "--height",
+            "60",
+            "--spp",
+            "8",
+        ],
+    );
+}
+
+#[test]
+fn mpi_acoustic_is_byte_identical_for_1_2_and_3_ranks() {
+    // 20,000 rays: 20 blocks of 1024, the last one short.
+    same_outputs_for_any_rank_count(
+        "acoustic",
+        &["acoustic", "builtin:shoebox", "--rays", "20000", "--out", "out"],
+    );
+}
+
+#[test]
+fn mpi_rf_is_byte_identical_for_1_2_and_3_ranks() {
+    let scene = format!("{MANIFEST_DIR}/rooms/street_canyon/scene.toml");
+    same_outputs_for_any_rank_count("rf", &["rf", &scene, "--rays", "300000", "--out", "out"]);
+}
+
+#[test]
+fn mpi_run_is_byte_identical_for_1_2_and_3_ranks() {
+    same_outputs_for_any_rank_count("run", &["run", "--out", "out"]);
+}
