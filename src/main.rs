@@ -30,7 +30,19 @@ fn main() -> ExitCode {
         }
     };
     match propsim::cli::run(cli, &cluster) {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(()) => {
+            if cluster.is_root() && cluster.size() > 1 {
+                let c = cluster.reduce_cost();
+                eprintln!(
+                    "mpi: {} processes; rank 0 waited {:.3} s for the others and reduced {:.2} MB in {:.3} s",
+                    cluster.size(),
+                    c.wait_s,
+                    c.bytes as f64 / 1e6,
+                    c.reduce_s
+                );
+            }
+            ExitCode::SUCCESS
+        }
         Err(e) => {
             // Every process of a job sees the same inputs and fails alike: rank 0 reports.
             if cluster.is_root() {

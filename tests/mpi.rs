@@ -115,7 +115,7 @@ const VOLATILE_KEYS: [&str; 10] = [
     "rays_per_second",
     "wall_time_s",
     "trace_time_s",
-    "reduce_time_s",
+    "reduce",
     "trace_seconds",
     "timings_s",
     "processes",

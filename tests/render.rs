@@ -180,17 +180,25 @@ fn rmse(a: &Film, b: &Film) -> f64 {
     (s / a.pixels.len() as f64).sqrt()
 }
 
-/// Monte Carlo error falls as 1/sqrt(spp): 4x the samples, about half the RMSE
-/// (sqrt((64 + 2048/2048)/(16 + ...)) ~ 1.98 with a 2048-spp reference).
+/// Monte Carlo error falls at least as 1/sqrt(spp): 4x the samples, at least about half the
+/// RMSE (stratified Sobol samples do better). The RMSE is pooled over four seeds, because at
+/// this size a handful of pixels on the light's edge carry much of the error of one image.
 #[test]
 fn rmse_falls_by_about_two_from_16_to_64_spp() {
     let world = cornell();
     let scene = RenderScene::new(&world);
     let cam = propsim::render::scene_camera(&world, 1.0).unwrap();
-    let w = 32;
+    let w = 48;
     let reference = go(&scene, &cam, &settings(w, 2048, 8, IntegratorKind::Path, 100));
-    let e16 = rmse(&go(&scene, &cam, &settings(w, 16, 8, IntegratorKind::Path, 1)), &reference);
-    let e64 = rmse(&go(&scene, &cam, &settings(w, 64, 8, IntegratorKind::Path, 2)), &reference);
+    let pooled = |spp: u32| {
+        let mse: f64 = (1..=4)
+            .map(|seed| {
+                rmse(&go(&scene, &cam, &settings(w, spp, 8, IntegratorKind::Path, seed)), &reference).powi(2)
+            })
+            .sum();
+        (mse / 4.0).sqrt()
+    };
+    let (e16, e64) = (pooled(16), pooled(64));
     assert!(e16 / e64 >= 1.8, "RMSE 16 spp {e16}, 64 spp {e64}: ratio {}", e16 / e64);
 }
 

@@ -371,7 +371,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         "wall_time_s": started.elapsed().as_secs_f64(),
         "trace_time_s": traced_s,
         "processes": cluster.size(),
-        "reduce_time_s": cluster.reduce_cost().0,
+        "reduce": cluster.reduce_cost(),
         "notes": {
             "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
             "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",

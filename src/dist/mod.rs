@@ -28,6 +28,8 @@ trait Backend {
     /// Element-wise sum over all ranks into rank 0's `data` (others' `data` is unchanged).
     fn sum_u64(&self, data: &mut [u64]);
     fn sum_u32(&self, data: &mut [u32]);
+    /// Waits until every rank gets here.
+    fn barrier(&self);
 }
 
 /// One process: nothing to exchange.
@@ -42,14 +44,25 @@ impl Backend for Solo {
     }
     fn sum_u64(&self, _: &mut [u64]) {}
     fn sum_u32(&self, _: &mut [u32]) {}
+    fn barrier(&self) {}
 }
 
-/// The processes of one run and the reductions between them, with the time and volume
-/// they cost (for the scaling figures).
+/// The processes of one run and the reductions between them, with what they cost (for the
+/// scaling figures).
 pub struct Cluster {
     backend: Box<dyn Backend>,
-    reduce_seconds: Cell<f64>,
-    reduce_bytes: Cell<u64>,
+    cost: Cell<ReduceCost>,
+}
+
+/// What the reductions of a run cost this process.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ReduceCost {
+    /// Seconds spent waiting for the other ranks to finish their share (load imbalance).
+    pub wait_s: f64,
+    /// Seconds spent in the reductions proper, after every rank arrived.
+    pub reduce_s: f64,
+    /// Bytes this process handed to the reductions.
+    pub bytes: u64,
 }
 
 impl Cluster {
@@ -59,7 +72,7 @@ impl Cluster {
     }
 
     fn with(backend: Box<dyn Backend>) -> Self {
-        Self { backend, reduce_seconds: Cell::new(0.0), reduce_bytes: Cell::new(0) }
+        Self { backend, cost: Cell::new(ReduceCost::default()) }
     }
 
     /// The MPI job this process belongs to when built with the `mpi` feature (a job of one
@@ -97,19 +110,26 @@ impl Cluster {
         (cores / self.backend.ranks_on_node().max(1)).max(1)
     }
 
-    /// Seconds spent in reductions so far, and bytes each process sent.
-    pub fn reduce_cost(&self) -> (f64, u64) {
-        (self.reduce_seconds.get(), self.reduce_bytes.get())
+    /// What the reductions so far cost this process.
+    pub fn reduce_cost(&self) -> ReduceCost {
+        self.cost.get()
     }
 
+    /// Runs a reduction of `bytes`, timing the wait for the other ranks apart from the
+    /// exchange itself.
     fn timed(&self, bytes: usize, f: impl FnOnce()) {
         if self.size() == 1 {
             return;
         }
         let t = Instant::now();
+        self.backend.barrier();
+        let arrived = Instant::now();
         f();
-        self.reduce_seconds.set(self.reduce_seconds.get() + t.elapsed().as_secs_f64());
-        self.reduce_bytes.set(self.reduce_bytes.get() + bytes as u64);
+        let mut c = self.cost.get();
+        c.wait_s += (arrived - t).as_secs_f64();
+        c.reduce_s += arrived.elapsed().as_secs_f64();
+        c.bytes += bytes as u64;
+        self.cost.set(c);
     }
 
     /// Element-wise sum over all processes into the root's `data`.
@@ -173,7 +193,7 @@ mod tests {
         let mut f = vec![1.5f32, -0.0];
         c.gather_disjoint_f32(&mut f);
         assert_eq!(f[0], 1.5);
-        assert_eq!(c.reduce_cost(), (0.0, 0));
+        assert_eq!(c.reduce_cost(), ReduceCost::default());
     }
 
     /// A fake job of `n` processes inside one: every "rank" hands in its data, and the sum

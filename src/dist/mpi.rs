@@ -4,7 +4,7 @@ use mpi::Threading;
 use mpi::collective::SystemOperation;
 use mpi::environment::Universe;
 use mpi::topology::SimpleCommunicator;
-use mpi::traits::{Communicator, Equivalence, Root};
+use mpi::traits::{Communicator, CommunicatorCollectives, Equivalence, Root};
 
 use super::Backend;
 use crate::core::Share;
@@ -52,5 +52,8 @@ impl Backend for MpiBackend {
     }
     fn sum_u32(&self, data: &mut [u32]) {
         self.sum(data);
+    }
+    fn barrier(&self) {
+        self.world.barrier();
     }
 }

@@ -24,6 +24,7 @@ pub mod film;
 pub mod lights;
 pub mod path;
 pub mod raycast;
+pub mod sampler;
 pub mod whitted;
 
 use std::str::FromStr;
@@ -35,9 +36,10 @@ use rayon::prelude::*;
 use rand::RngCore;
 
 use crate::core::rng::{Rng64, stream, uniform};
-use crate::core::sampling::{orthonormal_basis, stratified_2d};
+use crate::core::sampling::orthonormal_basis;
 use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
 use crate::dist::Cluster;
+use crate::render::sampler::Sampler;
 use crate::scene::materials::{OpticalKind, OpticalProps};
 use crate::scene::{Surface, World};
 
@@ -366,36 +368,19 @@ pub fn radiance(
     integrator: IntegratorKind,
     ray: Ray,
     max_depth: u32,
-    first: Option<path::FirstVertexSamples>,
-    rng: &mut Rng64,
+    sampler: &mut Sampler,
     rays: &mut u64,
 ) -> Vec3 {
     match integrator {
         IntegratorKind::Raycast => raycast::li(scene, &ray, rays),
         IntegratorKind::Whitted => whitted::li(scene, &ray, 0, max_depth, rays),
-        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, first, rng, rays),
-        IntegratorKind::Path => path::li(scene, ray, max_depth, first, rng, rays),
+        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, sampler, rays),
+        IntegratorKind::Path => path::li(scene, ray, max_depth, sampler, rays),
     }
 }
 
-/// The `(nx, ny)` strata of `spp` samples: the most nearly square factorisation.
-pub fn strata(spp: u32) -> (usize, usize) {
-    let mut nx = (f64::from(spp).sqrt() as u32).max(1);
-    while !spp.is_multiple_of(nx) {
-        nx -= 1;
-    }
-    (nx as usize, (spp / nx) as usize)
-}
-
-/// Greatest common divisor.
-fn gcd(mut a: usize, mut b: usize) -> usize {
-    while b != 0 {
-        (a, b) = (b, a % b);
-    }
-    a
-}
-
-/// Renders pixel `(x, y)`: the box-filtered mean of `spp` stratified samples.
+/// Renders pixel `(x, y)`: the box-filtered mean of `spp` samples, Owen-scrambled Sobol
+/// points for the Monte Carlo integrators ([`sampler`]), the pixel centre for the others.
 #[inline]
 fn render_pixel(
     scene: &RenderScene,
@@ -407,36 +392,17 @@ fn render_pixel(
 ) -> Vec3 {
     let index = u64::from(y) * u64::from(s.width) + u64::from(x);
     let mut rng = stream(s.seed, PIXEL_DOMAIN, index);
-    let (nx, ny) = strata(s.spp);
+    let pixel_seed = rng.next_u32();
     let jitter = s.integrator.jitters();
     let (w, h) = (s.width as f32, s.height as f32);
-    let spp = s.spp as usize;
-    // Shuffled stratum orders for the first vertex's light and BSDF samples: k -> (m k + c)
-    // mod spp with m coprime to spp, drawn per pixel (a cheap stand-in for a random permutation).
-    let shuffle = |rng: &mut Rng64| {
-        let mut m = (rng.next_u64() % spp as u64) as usize | 1;
-        while gcd(m, spp) != 1 {
-            m += 1;
-        }
-        (m % spp.max(1), (rng.next_u64() % spp as u64) as usize)
-    };
-    let (light_order, bsdf_order) =
-        if jitter { (shuffle(&mut rng), shuffle(&mut rng)) } else { ((1, 0), (1, 0)) };
     let mut sum = Vec3::ZERO;
-    for k in 0..spp {
-        let u = if jitter { u2(&mut rng) } else { Vec2::splat(0.5) };
-        let o = stratified_2d(k, nx, ny, u);
+    for k in 0..s.spp {
+        let mut sampler = Sampler::new(pixel_seed, k, &mut rng);
+        let (o, lens) =
+            if jitter { (sampler.get_2d(), sampler.get_2d()) } else { (Vec2::splat(0.5), Vec2::ZERO) };
         let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
-        let lens = if camera.aperture_radius_m > 0.0 { u2(&mut rng) } else { Vec2::ZERO };
-        let first = jitter.then(|| {
-            let kl = (light_order.0 * k + light_order.1) % spp;
-            let kb = (bsdf_order.0 * k + bsdf_order.1) % spp;
-            path::FirstVertexSamples {
-                light: stratified_2d(kl, nx, ny, u2(&mut rng)),
-                bsdf: stratified_2d(kb, nx, ny, u2(&mut rng)),
-            }
-        });
-        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, first, &mut rng, rays);
+        let lens = if camera.aperture_radius_m > 0.0 { lens } else { Vec2::ZERO };
+        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, &mut sampler, rays);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;

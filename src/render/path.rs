@@ -7,10 +7,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{Bsdf, Frame, RenderScene, power_heuristic, u2};
-use crate::core::Ray;
-use crate::core::rng::{Rng64, uniform};
-use crate::core::{Hit, rng};
+use super::sampler::Sampler;
+use super::{Bsdf, Frame, RenderScene, power_heuristic};
+use crate::core::{Hit, Ray};
 
 /// Bounces after which Russian roulette may end a path.
 const RR_START_DEPTH: u32 = 3;
@@ -32,19 +31,19 @@ pub struct Vertex<'h> {
     pub bsdf: Bsdf,
 }
 
-/// Direct lighting at a vertex from one light chosen by power: `f |cos| Li / pdf`, weighted
-/// against BSDF sampling by the power heuristic when `mis` (area lights only; point lights
-/// are Dirac and always take full weight).
+/// Direct lighting at a vertex from one light chosen by power with `u_choice`, at the point
+/// `u` on it: `f |cos| Li / pdf`, weighted against BSDF sampling by the power heuristic when
+/// `mis` (area lights only; point lights are Dirac and always take full weight).
 #[inline]
 pub fn sample_direct(
     scene: &RenderScene,
     v: &Vertex,
     u: Vec2,
-    rng: &mut Rng64,
+    u_choice: f32,
     rays: &mut u64,
     mis: bool,
 ) -> Vec3 {
-    let ul = uniform(rng);
+    let ul = u_choice;
     let Some((index, pmf)) = scene.lights.choose(ul) else {
         return Vec3::ZERO;
     };
@@ -68,26 +67,10 @@ pub fn sample_direct(
     f * ls.li * (w / light_pdf)
 }
 
-/// Stratified sample pairs for the first surface vertex of a path: the point on the light
-/// and the BSDF direction (padded stratification, pbrt-v4 sec. 8.5: each dimension pair is
-/// stratified on its own, with a shuffled stratum order so the pairs are not correlated).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FirstVertexSamples {
-    pub light: Vec2,
-    pub bsdf: Vec2,
-}
-
 /// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
 /// (1 = direct lighting only).
-pub fn li(
-    scene: &RenderScene,
-    ray: Ray,
-    max_depth: u32,
-    first: Option<FirstVertexSamples>,
-    rng: &mut rng::Rng64,
-    rays: &mut u64,
-) -> Vec3 {
-    trace(scene, ray, max_depth, first, rng, rays, PathMode::Full)
+pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
+    trace(scene, ray, max_depth, sampler, rays, PathMode::Full)
 }
 
 /// The shared path loop.
@@ -95,8 +78,7 @@ pub fn trace(
     scene: &RenderScene,
     mut ray: Ray,
     max_depth: u32,
-    mut first: Option<FirstVertexSamples>,
-    rng: &mut Rng64,
+    sampler: &mut Sampler,
     rays: &mut u64,
     mode: PathMode,
 ) -> Vec3 {
@@ -125,27 +107,26 @@ pub fn trace(
         if depth >= max_depth {
             break;
         }
+        // Every vertex reads the same dimensions of the sample, used or not.
+        sampler.start_bounce(depth);
+        let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
+        let (u_choice, u_lobe, u_roulette) = (sampler.get_1d(), sampler.get_1d(), sampler.get_1d());
         depth += 1;
         let bsdf = optics.bsdf;
         let frame = Frame::new(hit.normal);
         let wo = frame.to_local(-ray.dir);
         let delta = bsdf.is_delta();
-        let (u_light, u_bsdf) = match first.take() {
-            Some(f) => (f.light, f.bsdf),
-            None => (u2(rng), u2(rng)),
-        };
         if !delta {
             // A diffuse vertex of the distributed tracer is not continued, so its light sample
             // must carry the full estimate (no MIS).
             let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, Bsdf::Lambert { .. });
             let v = Vertex { hit: &hit, frame, wo, bsdf };
-            l += beta * sample_direct(scene, &v, u_light, rng, rays, !stop);
+            l += beta * sample_direct(scene, &v, u_light, u_choice, rays, !stop);
             if stop {
                 break;
             }
         }
-        let uc = uniform(rng);
-        let Some(s) = bsdf.sample(wo, u_bsdf, uc) else {
+        let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
             break;
         };
         beta *= s.weight();
@@ -156,7 +137,7 @@ pub fn trace(
         if depth >= RR_START_DEPTH {
             // Survive with probability max(beta) (at most 1): unbiased, and cheap paths end early.
             let q = beta.max_element().min(1.0);
-            if q <= 0.0 || uniform(rng) >= q {
+            if q <= 0.0 || u_roulette >= q {
                 break;
             }
             beta /= q;

@@ -1,0 +1,155 @@
+//! The sample generator of the Monte Carlo integrators. The 2-D pairs that matter most (film
+//! position, lens, and the light and BSDF pairs of the first bounce) are Owen-scrambled
+//! Sobol points (Burley 2020, "Practical Hash-based Owen Scrambling", via `sobol_burley`),
+//! padded in 4-D sets with a fresh scramble per set as pbrt-v4's `PaddedSobolSampler` does
+//! (pbrt-v4 sec. 8.7); 1-D choices and deeper bounces, which add little variance, take
+//! independent numbers from the pixel's random stream, which costs far less.
+//!
+//! Each Sobol pair is a (0,2)-sequence over a pixel's samples: for 2^2k samples exactly one
+//! lands in each cell of a 2^k x 2^k grid, jittered inside it, which is stratified jittered
+//! sampling and more. Each bounce reads fixed pairs, so a path that skips a sample at one
+//! vertex does not shift the dimensions of the next.
+
+use glam::{Vec2, Vec4};
+
+use crate::core::rng::{Rng64, uniform};
+
+/// Samples of one sequence before the scramble changes (sobol_burley's index range).
+const SEQUENCE_LENGTH: u32 = 1 << 16;
+
+/// Pairs drawn from the Sobol sequence: film and lens, then the light and BSDF pairs of the
+/// first bounce; later pairs come from the random stream. Measured on the Cornell box at
+/// 64 spp: Sobol pairs for two more bounces lower the RMSE by under 0.2 % and cost two more
+/// scrambled points per sample (about 5 % of the render time).
+const SOBOL_PAIRS: u32 = 4;
+
+/// The numbers of sample `index` of one pixel.
+pub struct Sampler<'r> {
+    index: u32,
+    pixel_seed: u32,
+    /// The next pair: 0 film, 1 lens, 2 + 2d light and 3 + 2d BSDF at bounce d.
+    pair: u32,
+    /// The 4-D Sobol point holding pairs `2k` and `2k + 1`, and its `k`.
+    point: Vec4,
+    point_set: u32,
+    rng: &'r mut Rng64,
+}
+
+impl<'r> Sampler<'r> {
+    /// Sample `index` of the pixel whose scramble is `pixel_seed` (a hash of the seed and the
+    /// pixel) and whose random stream is `rng`. Starts at the film pair.
+    pub fn new(pixel_seed: u32, index: u32, rng: &'r mut Rng64) -> Self {
+        // Past 2^16 samples, start independent scrambles of the sequence.
+        let pixel_seed = pixel_seed ^ (index / SEQUENCE_LENGTH).wrapping_mul(0x9e37_79b9);
+        Self {
+            index: index % SEQUENCE_LENGTH,
+            pixel_seed,
+            pair: 0,
+            point: Vec4::ZERO,
+            point_set: u32::MAX,
+            rng,
+        }
+    }
+
+    /// Moves to the pairs of bounce `depth` (0 = the first surface vertex): the light pair,
+    /// then the BSDF pair.
+    pub fn start_bounce(&mut self, depth: u32) {
+        self.pair = 2 + 2 * depth;
+    }
+
+    /// The next value in [0, 1) (independent).
+    pub fn get_1d(&mut self) -> f32 {
+        uniform(self.rng)
+    }
+
+    /// The next pair in [0, 1)^2.
+    pub fn get_2d(&mut self) -> Vec2 {
+        let pair = self.pair;
+        self.pair += 1;
+        if pair >= SOBOL_PAIRS {
+            return Vec2::new(uniform(self.rng), uniform(self.rng));
+        }
+        let set = pair / 2;
+        if set != self.point_set {
+            // Distinct seeds give statistically independent scrambles (sobol_burley, "Seeding").
+            let seed = self.pixel_seed ^ set.wrapping_mul(0x85eb_ca6b).rotate_left(13);
+            self.point = Vec4::from_array(sobol_burley::sample_4d(self.index, 0, seed));
+            self.point_set = set;
+        }
+        if pair.is_multiple_of(2) {
+            Vec2::new(self.point.x, self.point.y)
+        } else {
+            Vec2::new(self.point.z, self.point.w)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::rng::stream;
+
+    #[test]
+    fn sobol_pairs_put_one_sample_in_every_stratum() {
+        // 64 samples of one pixel: one in each cell of an 8 x 8 grid, for the film pair and
+        // for the first bounce's light and BSDF pairs.
+        let mut rng = stream(1, 2, 3);
+        for (bounce, skip) in [(None, 0), (Some(0), 0), (Some(0), 1)] {
+            let mut cells = [0u32; 64];
+            for i in 0..64 {
+                let mut s = Sampler::new(0xdead_beef, i, &mut rng);
+                if let Some(d) = bounce {
+                    s.start_bounce(d);
+                }
+                for _ in 0..skip {
+                    s.get_2d();
+                }
+                let u = s.get_2d();
+                assert!(u.x >= 0.0 && u.x < 1.0 && u.y >= 0.0 && u.y < 1.0);
+                cells[(u.y * 8.0) as usize * 8 + (u.x * 8.0) as usize] += 1;
+            }
+            assert!(cells.iter().all(|&c| c == 1), "{cells:?}");
+        }
+    }
+
+    #[test]
+    fn pairs_are_uniform_and_pixels_and_bounces_decorrelated() {
+        let n = 4096;
+        let (mut mean, mut across_pixels, mut across_bounces) = (0.0f64, 0.0f64, 0.0f64);
+        let mut rng = stream(1, 2, 3);
+        for i in 0..n {
+            // The first bounce's light pair against the film pair and another pixel's.
+            let (x, z) = {
+                let mut a = Sampler::new(1, i, &mut rng);
+                let z = a.get_2d().x;
+                a.start_bounce(0);
+                (a.get_2d().x, z)
+            };
+            let mut b = Sampler::new(2, i, &mut rng);
+            b.start_bounce(0);
+            let y = b.get_2d().x;
+            mean += f64::from(x);
+            across_pixels += f64::from(x - 0.5) * f64::from(y - 0.5);
+            across_bounces += f64::from(x - 0.5) * f64::from(z - 0.5);
+        }
+        let n = f64::from(n);
+        assert!((mean / n - 0.5).abs() < 0.01, "{mean}");
+        // Independent uniforms: covariance 0 with standard error 1/(12 sqrt(n)) = 0.0013.
+        assert!((across_pixels / n).abs() < 0.006, "{across_pixels}");
+        assert!((across_bounces / n).abs() < 0.006, "{across_bounces}");
+    }
+
+    #[test]
+    fn beyond_the_sequence_length_and_the_sobol_pairs_samples_stay_uniform() {
+        let mut rng = stream(1, 2, 3);
+        let (mut far, mut deep) = (0.0f64, 0.0f64);
+        for i in 0..1000u32 {
+            far += f64::from(Sampler::new(7, SEQUENCE_LENGTH + i, &mut rng).get_2d().y);
+            let mut s = Sampler::new(7, i, &mut rng);
+            s.start_bounce(6);
+            deep += f64::from(s.get_2d().x);
+        }
+        assert!((far / 1000.0 - 0.5).abs() < 0.03);
+        assert!((deep / 1000.0 - 0.5).abs() < 0.03);
+    }
+}
