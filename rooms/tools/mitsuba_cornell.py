@@ -3,9 +3,13 @@
 Usage (pip install mitsuba numpy; Dr.Jit's LLVM backend needs libLLVM >= 16, e.g.
 apt-get install libllvm19 and DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1):
 
-    propsim render -o ours_ref.exr --spp 512 --seed 99
-    propsim render -o ours64.exr --spp 64 --seed 5
-    python3 rooms/tools/mitsuba_cornell.py rooms/cornell_box_classic ours_ref.exr ours64.exr
+    propsim render -o ours_ref.exr --spp 4096 --seed 99
+    for s in 5 6 7; do propsim render -o ours64_$s.exr --spp 64 --seed $s; done
+    python3 rooms/tools/mitsuba_cornell.py rooms/cornell_box_classic ours_ref.exr ours64_5.exr ours64_6.exr ours64_7.exr
+
+It times Mitsuba's 64-spp render (median of 5) and prints, for each of Mitsuba's samplers and
+for propsim, the RMSE at 64 spp (pooled over the seeds) against the mean of the two
+references (propsim's and a 1024-spp Mitsuba render).
 
 Same geometry (the OBJ split per usemtl), same colours and emitter, two-sided diffuse (propsim's
 Lambert is two-sided; the shell's normals point out of the box), box pixel filter, and
@@ -16,7 +20,7 @@ import numpy as np
 import mitsuba as mi
 
 mi.set_variant("llvm_ad_rgb")
-room, ours_ref, ours64 = sys.argv[1:4]
+room, ours_ref = sys.argv[1:3]
 tmp = tempfile.mkdtemp()
 verts, faces, cur = [], {}, None
 for line in open(os.path.join(room, "cornell_box_classic.obj")):
@@ -43,8 +47,12 @@ for m, c in colours.items():
     if m == "cornell_light":
         shape["emitter"] = {"type": "area", "radiance": {"type": "rgb", "value": [17, 12, 4]}}
     scene[m] = shape
-s = mi.load_dict(scene)
-render = lambda spp, seed: np.array(mi.render(s, spp=spp, seed=seed))[..., :3]
+def load(sampler):
+    scene["sensor"]["sampler"] = {"type": sampler}
+    return mi.load_dict(scene)
+
+s = load("independent")
+render = lambda spp, seed, sc=None: np.array(mi.render(sc or s, spp=spp, seed=seed))[..., :3]
 render(4, 0)  # JIT warm-up
 times = []
 for k in range(5):
@@ -52,11 +60,17 @@ for k in range(5):
     m64 = render(64, 7 + k)
     times.append(time.time() - t)
 t = sorted(times)[2]
-ref = sum(render(64, 1000 + k) for k in range(8)) / 8
+ld = load("ldsampler")
+ref = sum(render(128, 1000 + k, ld) for k in range(8)) / 8
 theirs_ref = np.array(mi.Bitmap(ours_ref))[..., :3]
-o64 = np.array(mi.Bitmap(ours64))[..., :3]
 comb = (ref + theirs_ref) / 2
 rmse = lambda a, b: float(np.sqrt(((a - b) ** 2).sum(-1).mean()))
-print("reference means: mitsuba", ref.mean((0, 1)), "propsim", theirs_ref.mean((0, 1)))
-print(f"mitsuba 64 spp: {t:.3f} s median, {256 * 256 * 64 / t / 1e6:.2f} M samples/s, RMSE {rmse(m64, comb):.5f}")
-print(f"propsim 64 spp: RMSE {rmse(o64, comb):.5f}")
+pooled = lambda imgs: float(np.sqrt(np.mean([rmse(a, comb) ** 2 for a in imgs])))
+print("reference means: mitsuba", ref.mean((0, 1)), "propsim", theirs_ref.mean((0, 1)),
+      "RMSE between them", rmse(ref, theirs_ref))
+print(f"mitsuba 64 spp: {t:.3f} s median, {256 * 256 * 64 / t / 1e6:.2f} M samples/s")
+for name in ["independent", "stratified", "multijitter", "ldsampler"]:
+    sc = load(name)
+    print(f"mitsuba {name:12s} 64 spp RMSE {pooled([render(64, 7 + k, sc) for k in range(3)]):.5f}")
+ours = [np.array(mi.Bitmap(f))[..., :3] for f in sys.argv[3:]]
+print(f"propsim              64 spp RMSE {pooled(ours):.5f}")
