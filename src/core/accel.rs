@@ -8,11 +8,10 @@
 
 use std::time::Duration;
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
@@ -20,6 +19,7 @@ use super::hit::{Hit, PrimitiveKind};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
+use super::traverse::{NodeRay, Traverser};
 use super::triangle::{RayShear, TriangleRt};
 
 /// BVH build quality presets, from obvhs.
@@ -67,18 +67,16 @@ impl Boundable for Bounds {
     }
 }
 
-/// The obvhs ray. Adding +0.0 turns -0.0 direction components into +0.0: obvhs picks slab
-/// sides by `dir < 0` but inverts -0.0 to a negative number, which made axis-aligned rays
-/// (e.g. straight down, `-Vec3::Z`) miss every flat box.
+/// The node-test constants of a ray (see [`NodeRay`] for the -0.0 fix).
 #[inline]
-fn to_bvh_ray(ray: &Ray) -> BvhRay {
-    let dir = Vec3A::from(ray.dir) + Vec3A::ZERO;
-    BvhRay::new(ray.origin.into(), dir, ray.t_min, ray.t_max)
+fn node_ray(ray: &Ray) -> NodeRay {
+    NodeRay::new(ray.origin, ray.dir, ray.t_min)
 }
 
 /// A CWBVH over one mesh's triangles.
 pub struct MeshBvh {
     bvh: CwBvh,
+    traverser: Traverser,
     /// Triangles in BVH leaf order.
     tris: Vec<TriangleRt>,
     /// Mesh triangle index of each entry of `tris`.
@@ -93,6 +91,7 @@ impl MeshBvh {
         if n == 0 {
             return Self {
                 bvh: CwBvh::default(),
+                traverser: Traverser::new(&[]),
                 tris: Vec::new(),
                 mesh_index: Vec::new(),
                 surface: Vec::new(),
@@ -112,7 +111,8 @@ impl MeshBvh {
         bvh.primitive_indices = Vec::new();
         let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
         let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
-        Self { bvh, tris: ordered, mesh_index, surface }
+        let traverser = Traverser::new(&bvh.nodes);
+        Self { bvh, traverser, tris: ordered, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -125,16 +125,21 @@ impl MeshBvh {
     /// Leaf-order slot and distance of the closest hit.
     #[inline]
     fn closest_slot(&self, ray: &Ray) -> Option<(usize, f32)> {
-        if self.tris.is_empty() {
-            return None;
-        }
-        let mut rh = RayHit::none();
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self
-            .bvh
-            .ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax));
-        hit.then_some((rh.primitive_id as usize, rh.t))
+        let mut best = None;
+        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count, t_max| {
+            let range = first as usize..(first + count) as usize;
+            for (slot, tri) in range.clone().zip(&tris[range]) {
+                let t = tri.intersect_t(&shear, ray.t_min, *t_max);
+                // Only a strictly closer hit replaces the best one.
+                if t < *t_max {
+                    *t_max = t;
+                    best = Some((slot, t));
+                }
+            }
+        });
+        best
     }
 
     fn make_hit(&self, slot: usize, t: f32, uv: Vec2, ray: &Ray) -> Hit {
@@ -152,28 +157,22 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        if self.tris.is_empty() {
-            return None;
-        }
-        // As `closest_slot`, keeping the barycentrics of the closest hit so far (obvhs only
-        // records a candidate that is strictly closer than the current best, as here).
-        let mut rh = RayHit::none();
-        let mut best_uv = Vec2::ZERO;
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
-            match tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
-                Some((t, uv)) if t < r.tmax => {
-                    best_uv = uv;
-                    t
+        let mut best = None;
+        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count, t_max| {
+            let range = first as usize..(first + count) as usize;
+            for (slot, tri) in range.clone().zip(&tris[range]) {
+                match tri.intersect_sheared(&shear, ray.t_min, *t_max) {
+                    Some((t, uv)) if t < *t_max => {
+                        *t_max = t;
+                        best = Some((slot, t, uv));
+                    }
+                    _ => {}
                 }
-                _ => f32::INFINITY,
             }
         });
-        if !hit {
-            return None;
-        }
-        Some(self.make_hit(rh.primitive_id as usize, rh.t, best_uv, ray))
+        best.map(|(slot, t, uv)| self.make_hit(slot, t, uv, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
@@ -181,26 +180,26 @@ impl MeshBvh {
         self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot], t))
     }
 
-    /// True when any triangle lies on the segment `(t_min, t_max]`.
+    /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if self.tris.is_empty() {
-            return false;
-        }
         let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax))
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
+            (first as usize..(first + count) as usize)
+                .any(|slot| tris[slot].intersect_t(&shear, ray.t_min, ray.t_max) < ray.t_max)
+        })
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
-        if self.tris.is_empty() {
-            return;
-        }
         let shear = RayShear::new(ray.origin, ray.dir);
-        self.bvh.ray_traverse_anyhit(to_bvh_ray(ray), |r, id| {
-            if let Some((t, uv)) = self.tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
-                f(self.make_hit(id, t, uv, ray));
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
+            for slot in first as usize..(first + count) as usize {
+                if let Some((t, uv)) = self.tris[slot].intersect_sheared(&shear, ray.t_min, ray.t_max) {
+                    f(self.make_hit(slot, t, uv, ray));
+                }
             }
+            false
         });
     }
 }
@@ -212,7 +211,7 @@ const SPHERE_LINEAR_LIMIT: usize = 16;
 #[derive(Default)]
 pub struct SphereSet {
     pub spheres: Vec<Sphere>,
-    bvh: Option<CwBvh>,
+    bvh: Option<(CwBvh, Traverser)>,
 }
 
 impl SphereSet {
@@ -220,7 +219,9 @@ impl SphereSet {
         let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
             let bounds: Vec<Bounds> =
                 spheres.iter().map(|s| padded_bounds(s.aabb_min(), s.aabb_max())).collect();
-            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default())
+            let bvh = build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
+            let traverser = Traverser::new(&bvh.nodes);
+            (bvh, traverser)
         });
         Self { spheres, bvh }
     }
@@ -233,8 +234,12 @@ impl SphereSet {
     fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
         match &self.bvh {
             None => (0..self.spheres.len()).for_each(f),
-            Some(bvh) => {
-                bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| f(bvh.primitive_indices[id] as usize))
+            Some((bvh, traverser)) => {
+                traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
+                    let range = first as usize..(first + count) as usize;
+                    bvh.primitive_indices[range].iter().for_each(|&i| f(i as usize));
+                    false
+                });
             }
         }
     }
@@ -370,4 +375,47 @@ pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> b
         })
         .count();
     votes * 2 > PARITY_DIRECTIONS.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::rng::{stream, uniform};
+    use crate::core::sampling::uniform_sphere;
+
+    #[test]
+    fn simd_and_portable_traversals_agree() {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("a");
+        let mut r = stream(3, 0, 0);
+        for _ in 0..3000 {
+            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 - 20.0;
+            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 3.0;
+            let tri = [corner(), corner(), corner()];
+            mesh.push_triangle(tri, s);
+        }
+        // Axis-aligned triangles too, for flat boxes and -0.0 directions.
+        mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 6, s);
+        let simd = MeshBvh::build(&mesh, BuildQuality::default());
+        let mut portable = MeshBvh::build(&mesh, BuildQuality::default());
+        portable.traverser = Traverser::portable(&portable.bvh.nodes);
+        for k in 0..20_000u64 {
+            let mut r = stream(4, 1, k);
+            let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;
+            let mut d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+            if k % 7 == 0 {
+                d = [Vec3::X, -Vec3::Y, -Vec3::Z][(k % 3) as usize];
+            }
+            let ray = Ray::segment(o, d, 5.0 + 40.0 * uniform(&mut r));
+            assert_eq!(simd.closest_triangle(&ray), portable.closest_triangle(&ray), "ray {k}");
+            assert_eq!(simd.occluded(&ray), portable.occluded(&ray), "ray {k}");
+            assert_eq!(simd.occluded(&ray), simd.closest_triangle(&ray).is_some(), "ray {k}");
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            simd.for_each_hit(&ray, |h| a.push(h.primitive));
+            portable.for_each_hit(&ray, |h| b.push(h.primitive));
+            a.sort_unstable();
+            b.sort_unstable();
+            assert_eq!(a, b, "ray {k}");
+        }
+    }
 }

@@ -10,6 +10,8 @@ pub mod rng;
 pub mod sampling;
 pub mod spectrum;
 pub mod sphere;
+#[allow(unsafe_code)]
+pub mod traverse;
 pub mod triangle;
 
 pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
