@@ -8,7 +8,7 @@
 
 use std::time::Duration;
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
@@ -16,10 +16,11 @@ use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
 use super::hit::{Hit, PrimitiveKind};
+use super::leaf::LeafTriangles;
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
-use super::traverse::{NodeRay, Traverser};
+use super::traverse::{NodeRay, Traverser, leaf_ranges};
 use super::triangle::{RayShear, TriangleRt};
 
 /// BVH build quality presets, from obvhs.
@@ -77,8 +78,8 @@ fn node_ray(ray: &Ray) -> NodeRay {
 pub struct MeshBvh {
     bvh: CwBvh,
     traverser: Traverser,
-    /// Triangles in BVH leaf order.
-    tris: Vec<TriangleRt>,
+    /// Triangles in BVH leaf order, packed leaf by leaf.
+    leaves: LeafTriangles,
     /// Mesh triangle index of each entry of `tris`.
     mesh_index: Vec<u32>,
     /// Surface id of each entry of `tris`.
@@ -92,7 +93,7 @@ impl MeshBvh {
             return Self {
                 bvh: CwBvh::default(),
                 traverser: Traverser::new(&[]),
-                tris: Vec::new(),
+                leaves: LeafTriangles::default(),
                 mesh_index: Vec::new(),
                 surface: Vec::new(),
             };
@@ -111,39 +112,52 @@ impl MeshBvh {
         bvh.primitive_indices = Vec::new();
         let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
         let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
+        let leaves = LeafTriangles::new(&ordered, &leaf_ranges(&bvh.nodes));
+        drop(ordered);
         let traverser = Traverser::new(&bvh.nodes);
-        Self { bvh, traverser, tris: ordered, mesh_index, surface }
+        Self { bvh, traverser, leaves, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
     pub fn memory_bytes(&self) -> usize {
         self.bvh.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
-            + self.tris.len() * std::mem::size_of::<TriangleRt>()
+            + self.leaves.memory_bytes()
             + self.mesh_index.len() * 8
     }
 
     /// Leaf-order slot and distance of the closest hit.
     #[inline]
-    fn closest_slot(&self, ray: &Ray) -> Option<(usize, f32)> {
-        let tris = &self.tris;
+    fn closest_slot(&self, ray: &Ray) -> Option<(u32, f32)> {
         let shear = RayShear::new(ray.origin, ray.dir);
         let mut best = None;
-        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count, t_max| {
-            let range = first as usize..(first + count) as usize;
-            for (slot, tri) in range.clone().zip(&tris[range]) {
-                let t = tri.intersect_t(&shear, ray.t_min, *t_max);
-                // Only a strictly closer hit replaces the best one.
-                if t < *t_max {
-                    *t_max = t;
-                    best = Some((slot, t));
+        let prefetch = |first, count| self.leaves.prefetch(first, count);
+        self.traverser.closest(
+            &self.bvh.nodes,
+            &node_ray(ray),
+            ray.t_max,
+            prefetch,
+            |first, count, t_max| {
+                let hits = self.leaves.intersect(first, count, &shear, ray.t_min, *t_max);
+                let mut mask = hits.mask;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros();
+                    mask &= mask - 1;
+                    let t = hits.t.to_array()[lane as usize];
+                    // Only a strictly closer hit replaces the best one.
+                    if t < *t_max {
+                        *t_max = t;
+                        best = Some((first + lane, t));
+                    }
                 }
-            }
-        });
+            },
+        );
         best
     }
 
-    fn make_hit(&self, slot: usize, t: f32, uv: Vec2, ray: &Ray) -> Hit {
-        let normal = self.tris[slot].normal();
+    /// The hit on triangle `lane` of leaf `(first, count)`.
+    fn make_hit(&self, (first, count, lane): (u32, u32, u32), t: f32, uv: Vec2, ray: &Ray) -> Hit {
+        let normal = self.leaves.triangle(first, count, lane as usize).normal();
+        let slot = (first + lane) as usize;
         Hit {
             t,
             point: ray.at(t),
@@ -157,36 +171,43 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
         let mut best = None;
-        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count, t_max| {
-            let range = first as usize..(first + count) as usize;
-            for (slot, tri) in range.clone().zip(&tris[range]) {
-                match tri.intersect_sheared(&shear, ray.t_min, *t_max) {
-                    Some((t, uv)) if t < *t_max => {
+        let prefetch = |first, count| self.leaves.prefetch(first, count);
+        self.traverser.closest(
+            &self.bvh.nodes,
+            &node_ray(ray),
+            ray.t_max,
+            prefetch,
+            |first, count, t_max| {
+                let hits = self.leaves.intersect(first, count, &shear, ray.t_min, *t_max);
+                let mut mask = hits.mask;
+                while mask != 0 {
+                    let lane = mask.trailing_zeros();
+                    mask &= mask - 1;
+                    let (t, uv) = hits.lane(lane as usize);
+                    if t < *t_max {
                         *t_max = t;
-                        best = Some((slot, t, uv));
+                        best = Some(((first, count, lane), t, uv));
                     }
-                    _ => {}
                 }
-            }
-        });
-        best.map(|(slot, t, uv)| self.make_hit(slot, t, uv, ray))
+            },
+        );
+        best.map(|(at, t, uv)| self.make_hit(at, t, uv, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot], t))
+        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot as usize], t))
     }
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let tris = &self.tris;
         let shear = RayShear::new(ray.origin, ray.dir);
+        let t_max = Vec4::splat(ray.t_max);
         self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
-            (first as usize..(first + count) as usize)
-                .any(|slot| tris[slot].intersect_t(&shear, ray.t_min, ray.t_max) < ray.t_max)
+            let hits = self.leaves.intersect(first, count, &shear, ray.t_min, ray.t_max);
+            hits.mask & hits.t.cmplt(t_max).bitmask() != 0
         })
     }
 
@@ -194,10 +215,13 @@ impl MeshBvh {
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
         let shear = RayShear::new(ray.origin, ray.dir);
         self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
-            for slot in first as usize..(first + count) as usize {
-                if let Some((t, uv)) = self.tris[slot].intersect_sheared(&shear, ray.t_min, ray.t_max) {
-                    f(self.make_hit(slot, t, uv, ray));
-                }
+            let hits = self.leaves.intersect(first, count, &shear, ray.t_min, ray.t_max);
+            let mut mask = hits.mask;
+            while mask != 0 {
+                let lane = mask.trailing_zeros();
+                mask &= mask - 1;
+                let (t, uv) = hits.lane(lane as usize);
+                f(self.make_hit((first, count, lane), t, uv, ray));
             }
             false
         });

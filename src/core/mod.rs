@@ -4,6 +4,7 @@
 pub mod accel;
 pub mod hit;
 pub mod launcher;
+pub mod leaf;
 pub mod mesh;
 pub mod ray;
 pub mod rng;

@@ -193,6 +193,19 @@ mod avx {
     }
 }
 
+/// A hint to load the cache line holding `x`.
+#[inline(always)]
+pub fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch has no effect but on the cache, and SSE is part of x86-64.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
 /// A traversal stack of (node, entry distance) pairs.
 struct Stack<'a> {
     items: &'a mut [MaybeUninit<(u32, f32)>],
@@ -295,15 +308,24 @@ impl Traverser {
     /// Closest-hit traversal of `nodes` for `ray` up to `t_max`: `leaf` is called on each
     /// leaf whose box the ray enters before the current closest distance, nearest boxes first.
     #[inline]
-    pub fn closest(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaf: impl ClosestLeaf) {
+    pub fn closest(
+        &self,
+        nodes: &[CwBvhNode],
+        ray: &NodeRay,
+        t_max: f32,
+        prefetch: impl Fn(u32, u32),
+        leaf: impl ClosestLeaf,
+    ) {
         if nodes.is_empty() {
             return;
         }
         match self.isa {
-            Isa::Scalar => self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, leaf, s)),
+            Isa::Scalar => {
+                self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, prefetch, leaf, s))
+            }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaf, s) }),
+            Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, prefetch, leaf, s) }),
         }
     }
 
@@ -325,8 +347,15 @@ impl Traverser {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn closest_avx(nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaf: impl ClosestLeaf, stack: Stack<'_>) {
-    closest_loop::<avx::AvxTest>(nodes, ray, t_max, leaf, stack);
+fn closest_avx(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    prefetch: impl Fn(u32, u32),
+    leaf: impl ClosestLeaf,
+    stack: Stack<'_>,
+) {
+    closest_loop::<avx::AvxTest>(nodes, ray, t_max, prefetch, leaf, stack);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -340,6 +369,7 @@ fn closest_loop<T: NodeTest>(
     nodes: &[CwBvhNode],
     ray: &NodeRay,
     mut t_max: f32,
+    prefetch: impl Fn(u32, u32),
     mut leaf: impl ClosestLeaf,
     mut stack: Stack<'_>,
 ) {
@@ -349,6 +379,13 @@ fn closest_loop<T: NodeTest>(
         let (hits, tnear) = T::hits(node, ray, t_max);
         let imask = u32::from(node.imask);
         let mut leaves = hits & !imask;
+        let mut ahead = leaves;
+        while ahead != 0 {
+            let slot = ahead.trailing_zeros() as usize;
+            ahead &= ahead - 1;
+            let (first, count) = leaf_range(node, slot);
+            prefetch(first, count);
+        }
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
@@ -436,6 +473,20 @@ fn any_loop<T: NodeTest>(
             stack.push(child_index(node, slot), 0.0);
         }
     }
+}
+
+/// The `(first, count)` primitive ranges of all leaves, in primitive order.
+pub fn leaf_ranges(nodes: &[CwBvhNode]) -> Vec<(u32, u32)> {
+    let mut leaves: Vec<(u32, u32)> = nodes
+        .iter()
+        .flat_map(|n| {
+            (0..8)
+                .filter(|&slot| n.child_meta[slot] != 0 && n.imask & (1 << slot) == 0)
+                .map(|slot| leaf_range(n, slot))
+        })
+        .collect();
+    leaves.sort_unstable();
+    leaves
 }
 
 /// Levels of the tree below the root (0 for a root whose children are all leaves).
