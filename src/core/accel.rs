@@ -20,7 +20,7 @@ use super::leaf::LeafTriangles;
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
-use super::traverse::{NodeRay, Traverser, leaf_ranges};
+use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
 use super::triangle::{RayShear, TriangleRt};
 
 /// BVH build quality presets, from obvhs.
@@ -125,33 +125,17 @@ impl MeshBvh {
             + self.mesh_index.len() * 8
     }
 
-    /// Leaf-order slot and distance of the closest hit.
+    /// The closest hit as (leaf, lane, distance, barycentrics).
     #[inline]
-    fn closest_slot(&self, ray: &Ray) -> Option<(u32, f32)> {
-        let shear = RayShear::new(ray.origin, ray.dir);
-        let mut best = None;
-        let prefetch = |first, count| self.leaves.prefetch(first, count);
-        self.traverser.closest(
-            &self.bvh.nodes,
-            &node_ray(ray),
-            ray.t_max,
-            prefetch,
-            |first, count, t_max| {
-                let hits = self.leaves.intersect(first, count, &shear, ray.t_min, *t_max);
-                let mut mask = hits.mask;
-                while mask != 0 {
-                    let lane = mask.trailing_zeros();
-                    mask &= mask - 1;
-                    let t = hits.t.to_array()[lane as usize];
-                    // Only a strictly closer hit replaces the best one.
-                    if t < *t_max {
-                        *t_max = t;
-                        best = Some((first + lane, t));
-                    }
-                }
-            },
-        );
-        best
+    fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
+        let mut visitor = ClosestTriangle {
+            leaves: &self.leaves,
+            shear: RayShear::new(ray.origin, ray.dir),
+            t_min: ray.t_min,
+            best: None,
+        };
+        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+        visitor.best
     }
 
     /// The hit on triangle `lane` of leaf `(first, count)`.
@@ -171,60 +155,116 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        let shear = RayShear::new(ray.origin, ray.dir);
-        let mut best = None;
-        let prefetch = |first, count| self.leaves.prefetch(first, count);
-        self.traverser.closest(
-            &self.bvh.nodes,
-            &node_ray(ray),
-            ray.t_max,
-            prefetch,
-            |first, count, t_max| {
-                let hits = self.leaves.intersect(first, count, &shear, ray.t_min, *t_max);
-                let mut mask = hits.mask;
-                while mask != 0 {
-                    let lane = mask.trailing_zeros();
-                    mask &= mask - 1;
-                    let (t, uv) = hits.lane(lane as usize);
-                    if t < *t_max {
-                        *t_max = t;
-                        best = Some(((first, count, lane), t, uv));
-                    }
-                }
-            },
-        );
-        best.map(|(at, t, uv)| self.make_hit(at, t, uv, ray))
+        self.closest_lane(ray).map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot as usize], t))
+        self.closest_lane(ray).map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t))
     }
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let shear = RayShear::new(ray.origin, ray.dir);
-        let t_max = Vec4::splat(ray.t_max);
-        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
-            let hits = self.leaves.intersect(first, count, &shear, ray.t_min, ray.t_max);
-            hits.mask & hits.t.cmplt(t_max).bitmask() != 0
-        })
+        let mut visitor = Occlusion { leaves: &self.leaves, shear: RayShear::new(ray.origin, ray.dir), ray };
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
-    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
-        let shear = RayShear::new(ray.origin, ray.dir);
-        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
-            let hits = self.leaves.intersect(first, count, &shear, ray.t_min, ray.t_max);
-            let mut mask = hits.mask;
-            while mask != 0 {
-                let lane = mask.trailing_zeros();
-                mask &= mask - 1;
-                let (t, uv) = hits.lane(lane as usize);
-                f(self.make_hit((first, count, lane), t, uv, ray));
+    pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
+        let mut visitor = AllHits { mesh: self, shear: RayShear::new(ray.origin, ray.dir), ray, f };
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+    }
+}
+
+/// The closest hit found so far: lane `lane` of the leaf `(first, count)`.
+#[derive(Clone, Copy, Debug)]
+struct ClosestLane {
+    first: u32,
+    count: u32,
+    lane: u32,
+    t: f32,
+    uv: Vec2,
+}
+
+/// The leaf test of a closest-hit query.
+struct ClosestTriangle<'a> {
+    leaves: &'a LeafTriangles,
+    shear: RayShear,
+    t_min: f32,
+    best: Option<ClosestLane>,
+}
+
+impl ClosestLeaves for ClosestTriangle<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, t_max: &mut f32) {
+        let hits = self.leaves.intersect(first, count, &self.shear, self.t_min, *t_max);
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros();
+            mask &= mask - 1;
+            let (t, uv) = hits.lane(lane as usize);
+            // Only a strictly closer hit replaces the best one.
+            if t < *t_max {
+                *t_max = t;
+                self.best = Some(ClosestLane { first, count, lane, t, uv });
             }
-            false
-        });
+        }
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.leaves.prefetch(first, count);
+    }
+}
+
+/// The leaf test of an occlusion query.
+struct Occlusion<'a> {
+    leaves: &'a LeafTriangles,
+    shear: RayShear,
+    ray: &'a Ray,
+}
+
+impl AnyLeaves for Occlusion<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let hits = self.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
+        hits.mask & hits.t.cmplt(Vec4::splat(self.ray.t_max)).bitmask() != 0
+    }
+}
+
+/// The leaf test of an all-hits query.
+struct AllHits<'a, F> {
+    mesh: &'a MeshBvh,
+    shear: RayShear,
+    ray: &'a Ray,
+    f: F,
+}
+
+impl<F: FnMut(Hit)> AnyLeaves for AllHits<'_, F> {
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let hits = self.mesh.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros();
+            mask &= mask - 1;
+            let (t, uv) = hits.lane(lane as usize);
+            (self.f)(self.mesh.make_hit((first, count, lane), t, uv, self.ray));
+        }
+        false
+    }
+}
+
+/// The leaf visit of a sphere BVH: every candidate sphere index goes to `f`.
+struct SphereCandidates<'a, F> {
+    order: &'a [u32],
+    f: F,
+}
+
+impl<F: FnMut(usize)> AnyLeaves for SphereCandidates<'_, F> {
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let range = first as usize..(first + count) as usize;
+        self.order[range].iter().for_each(|&i| (self.f)(i as usize));
+        false
     }
 }
 
@@ -255,15 +295,12 @@ impl SphereSet {
     }
 
     /// Calls `f(index)` for every sphere whose bounds the ray segment may cross.
-    fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
+    fn candidates(&self, ray: &Ray, f: impl FnMut(usize)) {
         match &self.bvh {
             None => (0..self.spheres.len()).for_each(f),
             Some((bvh, traverser)) => {
-                traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, |first, count| {
-                    let range = first as usize..(first + count) as usize;
-                    bvh.primitive_indices[range].iter().for_each(|&i| f(i as usize));
-                    false
-                });
+                let mut visitor = SphereCandidates { order: &bvh.primitive_indices, f };
+                traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
             }
         }
     }

@@ -108,16 +108,7 @@ impl LeafTriangles {
         let lanes = (1u32 << n) - 1;
         let zero = (u.cmpeq(Vec4::ZERO) | v.cmpeq(Vec4::ZERO) | w.cmpeq(Vec4::ZERO)).bitmask() & lanes;
         if zero != 0 {
-            // Exact zero: decide in double precision (Woop et al., sec. 3), lane by lane.
-            let (mut ua, mut va, mut wa) = (u.to_array(), v.to_array(), w.to_array());
-            let f = |x: Vec4| x.to_array().map(f64::from);
-            let (ax, ay, bx, by, cx, cy) = (f(ax), f(ay), f(bx), f(by), f(cx), f(cy));
-            for i in (0..4).filter(|i| zero & (1 << i) != 0) {
-                ua[i] = (cx[i] * by[i] - cy[i] * bx[i]) as f32;
-                va[i] = (ax[i] * cy[i] - ay[i] * cx[i]) as f32;
-                wa[i] = (bx[i] * ay[i] - by[i] * ax[i]) as f32;
-            }
-            (u, v, w) = (Vec4::from_array(ua), Vec4::from_array(va), Vec4::from_array(wa));
+            (u, v, w) = edge_functions_f64(zero, [ax, ay, bx, by, cx, cy], [u, v, w]);
         }
         let negative = u.cmplt(Vec4::ZERO) | v.cmplt(Vec4::ZERO) | w.cmplt(Vec4::ZERO);
         let positive = u.cmpgt(Vec4::ZERO) | v.cmpgt(Vec4::ZERO) | w.cmpgt(Vec4::ZERO);
@@ -129,6 +120,21 @@ impl LeafTriangles {
         let in_range = t.cmpgt(Vec4::splat(t_min)) & t.cmple(Vec4::splat(t_max));
         LeafHits { mask: (inside & in_range).bitmask() & lanes, t, u: v * inv_det, v: w * inv_det }
     }
+}
+
+/// The edge functions of the lanes in `zero` recomputed in double precision (Woop et al.,
+/// sec. 3): the rare exact zeros of a ray through an edge or a vertex.
+#[cold]
+#[inline(never)]
+fn edge_functions_f64(zero: u32, corners: [Vec4; 6], uvw: [Vec4; 3]) -> (Vec4, Vec4, Vec4) {
+    let [ax, ay, bx, by, cx, cy] = corners.map(|x| x.to_array().map(f64::from));
+    let [mut u, mut v, mut w] = uvw.map(|x| x.to_array());
+    for i in (0..4).filter(|i| zero & (1 << i) != 0) {
+        u[i] = (cx[i] * by[i] - cy[i] * bx[i]) as f32;
+        v[i] = (ax[i] * cy[i] - ay[i] * cx[i]) as f32;
+        w[i] = (bx[i] * ay[i] - by[i] * ax[i]) as f32;
+    }
+    (Vec4::from_array(u), Vec4::from_array(v), Vec4::from_array(w))
 }
 
 impl LeafHits {

@@ -246,15 +246,19 @@ pub struct Traverser {
     stack_len: usize,
 }
 
-/// Leaf callback of a closest-hit traversal: primitives `first..first + count` (leaf order),
-/// with the current closest distance to lower on a hit.
-pub trait ClosestLeaf: FnMut(u32, u32, &mut f32) {}
-impl<F: FnMut(u32, u32, &mut f32)> ClosestLeaf for F {}
+/// What a closest-hit traversal does at the leaves.
+pub trait ClosestLeaves {
+    /// Tests primitives `first..first + count` (leaf order), lowering `t_max` on a closer hit.
+    fn test(&mut self, first: u32, count: u32, t_max: &mut f32);
+    /// A hint that leaf `(first, count)` is tested next; loads it into the cache.
+    fn prefetch(&self, _first: u32, _count: u32) {}
+}
 
-/// Leaf callback of an any-hit traversal: primitives `first..first + count`; returns true to
-/// stop the traversal.
-pub trait AnyLeaf: FnMut(u32, u32) -> bool {}
-impl<F: FnMut(u32, u32) -> bool> AnyLeaf for F {}
+/// What an any-hit traversal does at the leaves.
+pub trait AnyLeaves {
+    /// Tests primitives `first..first + count`; returns true to stop the traversal.
+    fn test(&mut self, first: u32, count: u32) -> bool;
+}
 
 /// Primitive range `(first, count)` of leaf child `slot`.
 #[inline(always)]
@@ -305,42 +309,33 @@ impl Traverser {
         }
     }
 
-    /// Closest-hit traversal of `nodes` for `ray` up to `t_max`: `leaf` is called on each
+    /// Closest-hit traversal of `nodes` for `ray` up to `t_max`: `leaves` tests each
     /// leaf whose box the ray enters before the current closest distance, nearest boxes first.
     #[inline]
-    pub fn closest(
-        &self,
-        nodes: &[CwBvhNode],
-        ray: &NodeRay,
-        t_max: f32,
-        prefetch: impl Fn(u32, u32),
-        leaf: impl ClosestLeaf,
-    ) {
+    pub fn closest(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl ClosestLeaves) {
         if nodes.is_empty() {
             return;
         }
         match self.isa {
-            Isa::Scalar => {
-                self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, prefetch, leaf, s))
-            }
+            Isa::Scalar => self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, prefetch, leaf, s) }),
+            Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaves, s) }),
         }
     }
 
-    /// Any-hit traversal: `leaf` is called on every leaf whose box the ray crosses on
+    /// Any-hit traversal: `leaves` tests every leaf whose box the ray crosses on
     /// `(t_min, t_max]` until it returns true. Returns whether it did.
     #[inline]
-    pub fn any(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaf: impl AnyLeaf) -> bool {
+    pub fn any(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl AnyLeaves) -> bool {
         if nodes.is_empty() {
             return false;
         }
         match self.isa {
-            Isa::Scalar => self.with_stack(|s| any_loop::<ScalarTest>(nodes, ray, t_max, leaf, s)),
+            Isa::Scalar => self.with_stack(|s| any_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaf, s) }),
+            Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaves, s) }),
         }
     }
 }
@@ -351,17 +346,22 @@ fn closest_avx(
     nodes: &[CwBvhNode],
     ray: &NodeRay,
     t_max: f32,
-    prefetch: impl Fn(u32, u32),
-    leaf: impl ClosestLeaf,
+    leaves: &mut impl ClosestLeaves,
     stack: Stack<'_>,
 ) {
-    closest_loop::<avx::AvxTest>(nodes, ray, t_max, prefetch, leaf, stack);
+    closest_loop::<avx::AvxTest>(nodes, ray, t_max, leaves, stack);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn any_avx(nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaf: impl AnyLeaf, stack: Stack<'_>) -> bool {
-    any_loop::<avx::AvxTest>(nodes, ray, t_max, leaf, stack)
+fn any_avx(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl AnyLeaves,
+    stack: Stack<'_>,
+) -> bool {
+    any_loop::<avx::AvxTest>(nodes, ray, t_max, leaves, stack)
 }
 
 #[inline(always)]
@@ -369,8 +369,7 @@ fn closest_loop<T: NodeTest>(
     nodes: &[CwBvhNode],
     ray: &NodeRay,
     mut t_max: f32,
-    prefetch: impl Fn(u32, u32),
-    mut leaf: impl ClosestLeaf,
+    visitor: &mut impl ClosestLeaves,
     mut stack: Stack<'_>,
 ) {
     let mut current = 0u32;
@@ -384,13 +383,13 @@ fn closest_loop<T: NodeTest>(
             let slot = ahead.trailing_zeros() as usize;
             ahead &= ahead - 1;
             let (first, count) = leaf_range(node, slot);
-            prefetch(first, count);
+            visitor.prefetch(first, count);
         }
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
             let (first, count) = leaf_range(node, slot);
-            leaf(first, count, &mut t_max);
+            visitor.test(first, count, &mut t_max);
         }
         let mut inner = hits & imask;
         match inner.count_ones() {
@@ -440,7 +439,7 @@ fn any_loop<T: NodeTest>(
     nodes: &[CwBvhNode],
     ray: &NodeRay,
     t_max: f32,
-    mut leaf: impl AnyLeaf,
+    visitor: &mut impl AnyLeaves,
     mut stack: Stack<'_>,
 ) -> bool {
     let mut current = 0u32;
@@ -453,7 +452,7 @@ fn any_loop<T: NodeTest>(
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
             let (first, count) = leaf_range(node, slot);
-            if leaf(first, count) {
+            if visitor.test(first, count) {
                 return true;
             }
         }
