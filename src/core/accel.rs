@@ -16,7 +16,7 @@ use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
 use super::hit::{Hit, PrimitiveKind};
-use super::leaf::LeafTriangles;
+use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
@@ -130,7 +130,7 @@ impl MeshBvh {
     fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
         let mut visitor = ClosestTriangle {
             leaves: &self.leaves,
-            shear: RayShear::new(ray.origin, ray.dir),
+            shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)),
             t_min: ray.t_min,
             best: None,
         };
@@ -165,13 +165,15 @@ impl MeshBvh {
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let mut visitor = Occlusion { leaves: &self.leaves, shear: RayShear::new(ray.origin, ray.dir), ray };
+        let mut visitor =
+            Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray };
         self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
     pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
-        let mut visitor = AllHits { mesh: self, shear: RayShear::new(ray.origin, ray.dir), ray, f };
+        let mut visitor =
+            AllHits { mesh: self, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray, f };
         self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
     }
 }
@@ -189,7 +191,7 @@ struct ClosestLane {
 /// The leaf test of a closest-hit query.
 struct ClosestTriangle<'a> {
     leaves: &'a LeafTriangles,
-    shear: RayShear,
+    shear: LeafRay,
     t_min: f32,
     best: Option<ClosestLane>,
 }
@@ -220,7 +222,7 @@ impl ClosestLeaves for ClosestTriangle<'_> {
 /// The leaf test of an occlusion query.
 struct Occlusion<'a> {
     leaves: &'a LeafTriangles,
-    shear: RayShear,
+    shear: LeafRay,
     ray: &'a Ray,
 }
 
@@ -235,7 +237,7 @@ impl AnyLeaves for Occlusion<'_> {
 /// The leaf test of an all-hits query.
 struct AllHits<'a, F> {
     mesh: &'a MeshBvh,
-    shear: RayShear,
+    shear: LeafRay,
     ray: &'a Ray,
     f: F,
 }

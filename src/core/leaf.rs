@@ -15,13 +15,39 @@ use glam::{BVec4A, Vec2, Vec3, Vec4};
 use super::traverse::prefetch;
 use super::triangle::{RayShear, TriangleRt};
 
-/// Floats read past the last leaf by a 4-wide load.
-const PAD: usize = 4;
+/// Floats a leaf test may read from its first float on: nine runs of up to 3, and 3 more
+/// lanes. A fixed window lets the compiler drop the bounds checks of the nine loads.
+const WINDOW: usize = 31;
+/// Floats after the last leaf, so that its window is readable.
+const PAD: usize = WINDOW;
 
 /// All triangles of a BVH's leaves, in leaf order.
 #[derive(Clone, Debug, Default)]
 pub struct LeafTriangles {
     data: Vec<f32>,
+}
+
+/// Per-ray constants of the leaf test: the watertight shear of [`RayShear`], with the origin
+/// in the permuted frame, as 4-wide splats.
+#[derive(Clone, Copy, Debug)]
+pub struct LeafRay {
+    /// Origin coordinates along the permuted axes `kx`, `ky`, `kz`.
+    origin: [Vec4; 3],
+    /// Shear `sx`, `sy`, `sz`.
+    shear: [Vec4; 3],
+    /// The permuted axes.
+    axis: [usize; 3],
+}
+
+impl LeafRay {
+    #[inline(always)]
+    pub fn new(s: &RayShear) -> Self {
+        Self {
+            origin: [s.kx, s.ky, s.kz].map(|k| Vec4::splat(s.origin[k])),
+            shear: [s.sx, s.sy, s.sz].map(Vec4::splat),
+            axis: [s.kx, s.ky, s.kz],
+        }
+    }
 }
 
 /// The triangles of one leaf hit by a ray: lanes `0..count` of the leaf.
@@ -84,16 +110,21 @@ impl LeafTriangles {
     /// The watertight test of every triangle of the leaf `(first, count)` against a ray, on
     /// `(t_min, t_max]`. Two-sided.
     #[inline(always)]
-    pub fn intersect(&self, first: u32, count: u32, s: &RayShear, t_min: f32, t_max: f32) -> LeafHits {
-        let (base, n) = (9 * first as usize, count as usize);
-        let d = &self.data;
-        let (kx, ky, kz) = (s.kx, s.ky, s.kz);
-        let load = |v: usize, k: usize| {
-            let i = base + (3 * v + k) * n;
-            Vec4::from_slice(&d[i..i + 4])
+    pub fn intersect(&self, first: u32, count: u32, ray: &LeafRay, t_min: f32, t_max: f32) -> LeafHits {
+        let base = 9 * first as usize;
+        let Some(window) = self.data.get(base..base + WINDOW) else {
+            return LeafHits::NONE;
         };
-        let (ox, oy, oz) = (Vec4::splat(s.origin[kx]), Vec4::splat(s.origin[ky]), Vec4::splat(s.origin[kz]));
-        let (sx, sy, sz) = (Vec4::splat(s.sx), Vec4::splat(s.sy), Vec4::splat(s.sz));
+        // Lane counts and axes are at most 3 and 2: with these bounds and the fixed window
+        // the compiler sees every load in range.
+        let n = (count as usize).min(3);
+        let [kx, ky, kz] = ray.axis.map(|k| k.min(2) * n);
+        let load = |v: usize, k: usize| {
+            let i = 3 * v * n + k;
+            Vec4::from_slice(&window[i..i + 4])
+        };
+        let [ox, oy, oz] = ray.origin;
+        let [sx, sy, sz] = ray.shear;
         // Corners relative to the origin, in the permuted frame, then sheared.
         let (az, bz, cz) = (load(0, kz) - oz, load(1, kz) - oz, load(2, kz) - oz);
         let ax = load(0, kx) - ox - sx * az;
@@ -138,6 +169,9 @@ fn edge_functions_f64(zero: u32, corners: [Vec4; 6], uvw: [Vec4; 3]) -> (Vec4, V
 }
 
 impl LeafHits {
+    /// No hit.
+    const NONE: Self = Self { mask: 0, t: Vec4::ZERO, u: Vec4::ZERO, v: Vec4::ZERO };
+
     /// Distance and barycentrics of hit lane `i`.
     #[inline(always)]
     pub fn lane(&self, i: usize) -> (f32, Vec2) {
@@ -177,8 +211,9 @@ mod tests {
             };
             let ray = Ray::segment(o, d, 2.0 + 3.0 * uniform(&mut r));
             let s = RayShear::new(ray.origin, ray.dir);
+            let leaf_ray = LeafRay::new(&s);
             for &(first, count) in &split {
-                let hits = packed.intersect(first, count, &s, ray.t_min, ray.t_max);
+                let hits = packed.intersect(first, count, &leaf_ray, ray.t_min, ray.t_max);
                 for lane in 0..count as usize {
                     let tri = tris[first as usize + lane];
                     assert_eq!(packed.triangle(first, count, lane), tri);

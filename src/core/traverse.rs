@@ -385,13 +385,28 @@ fn closest_loop<T: NodeTest>(
             let (first, count) = leaf_range(node, slot);
             visitor.prefetch(first, count);
         }
+        let entry_t_max = t_max;
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            let (first, count) = leaf_range(node, slot);
-            visitor.test(first, count, &mut t_max);
+            // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
+            if tnear[slot] <= t_max {
+                let (first, count) = leaf_range(node, slot);
+                visitor.test(first, count, &mut t_max);
+            }
         }
         let mut inner = hits & imask;
+        if t_max < entry_t_max {
+            // Drop the children now entered beyond the closest hit.
+            let mut m = inner;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if tnear[slot] > t_max {
+                    inner &= !(1 << slot);
+                }
+            }
+        }
         match inner.count_ones() {
             0 => {}
             1 => {
