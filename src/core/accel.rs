@@ -459,9 +459,21 @@ mod tests {
         }
         // Axis-aligned triangles too, for flat boxes and -0.0 directions.
         mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 6, s);
-        let simd = MeshBvh::build(&mesh, BuildQuality::default());
-        let mut portable = MeshBvh::build(&mesh, BuildQuality::default());
-        portable.traverser = Traverser::portable(&portable.bvh.nodes);
+        let reference = {
+            let mut m = MeshBvh::build(&mesh, BuildQuality::default());
+            m.traverser = Traverser::all_available(&m.bvh.nodes)[0];
+            m
+        };
+        let mut simd = MeshBvh::build(&mesh, BuildQuality::default());
+        let variants = Traverser::all_available(&simd.bvh.nodes);
+        eprintln!("traversals compared to the portable one: {:?}", &variants[1..]);
+        for variant in &variants[1..] {
+            simd.traverser = *variant;
+            compare(&reference, &simd);
+        }
+    }
+
+    fn compare(portable: &MeshBvh, simd: &MeshBvh) {
         for k in 0..20_000u64 {
             let mut r = stream(4, 1, k);
             let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;

@@ -2,8 +2,10 @@
 //! loop over obvhs' node data, specialised for closest hit (children visited nearest first,
 //! stack entries culled by distance) and for any hit (occlusion, all hits).
 //!
-//! The eight child boxes of a node are tested at once: with AVX and FMA (chosen at run time,
-//! so the binary still runs on any x86-64) in one 8-wide pass, otherwise by a scalar loop.
+//! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
+//! widening of the quantised planes where present) in one 8-wide pass, otherwise by a scalar
+//! loop. The node test is chosen at run time, so the binary still runs on any x86-64;
+//! [`ISA_VARIABLE`] can lower it.
 //! Both are conservative in the same way as obvhs' own test: the child boxes are quantised
 //! outwards, and [`crate::core::accel`] pads primitive bounds by a few ulps, which covers the
 //! rounding of the slab distances. A direction component of -0.0 is turned into +0.0 first,
@@ -138,28 +140,35 @@ mod avx {
 
     /// The 8-wide node test; every function here is `inline(always)` so that it ends up in
     /// the `target_feature` functions that call it, where the intrinsics inline too.
-    pub(super) struct AvxTest;
+    /// With `AVX2`, the eight plane bytes widen in one instruction.
+    pub(super) struct AvxTest<const AVX2: bool>;
 
     /// Distances to the eight quantised planes at byte `offset` of `node` along an axis with
     /// slab slope `scale` and offset `shift`.
     ///
     /// # Safety
-    /// The CPU must have AVX, FMA and SSE4.1, and `offset + 8` must not exceed the node size.
+    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`), and `offset + 8` must not
+    /// exceed the node size.
     #[inline(always)]
-    unsafe fn slab(node: &CwBvhNode, offset: usize, scale: f32, shift: f32) -> __m256 {
+    unsafe fn slab<const AVX2: bool>(node: &CwBvhNode, offset: usize, scale: f32, shift: f32) -> __m256 {
         debug_assert!(offset + 8 <= size_of::<CwBvhNode>());
         let p = (node as *const CwBvhNode).cast::<u8>();
         // SAFETY: per the contract, the eight bytes read lie inside `*node` (unaligned loads)
         // and the intrinsics' features are present.
         unsafe {
-            let lo = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset).cast::<i32>().read_unaligned()));
-            let hi = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset + 4).cast::<i32>().read_unaligned()));
-            let q = _mm256_cvtepi32_ps(_mm256_insertf128_si256::<1>(_mm256_castsi128_si256(lo), hi));
-            _mm256_fmadd_ps(q, _mm256_set1_ps(scale), _mm256_set1_ps(shift))
+            let q = if AVX2 {
+                _mm256_cvtepu8_epi32(_mm_loadl_epi64(p.add(offset).cast()))
+            } else {
+                let lo = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset).cast::<i32>().read_unaligned()));
+                let hi =
+                    _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset + 4).cast::<i32>().read_unaligned()));
+                _mm256_insertf128_si256::<1>(_mm256_castsi128_si256(lo), hi)
+            };
+            _mm256_fmadd_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(scale), _mm256_set1_ps(shift))
         }
     }
 
-    impl NodeTest for AvxTest {
+    impl<const AVX2: bool> NodeTest for AvxTest<AVX2> {
         #[inline(always)]
         fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
             let (scale, shift) = node_frame(node, ray);
@@ -170,17 +179,20 @@ mod avx {
             let mask = unsafe {
                 let t0 = _mm256_max_ps(
                     _mm256_max_ps(
-                        slab(node, ray.near[0], scale.x, shift.x),
-                        slab(node, ray.near[1], scale.y, shift.y),
+                        slab::<AVX2>(node, ray.near[0], scale.x, shift.x),
+                        slab::<AVX2>(node, ray.near[1], scale.y, shift.y),
                     ),
-                    _mm256_max_ps(slab(node, ray.near[2], scale.z, shift.z), _mm256_set1_ps(ray.t_min)),
+                    _mm256_max_ps(
+                        slab::<AVX2>(node, ray.near[2], scale.z, shift.z),
+                        _mm256_set1_ps(ray.t_min),
+                    ),
                 );
                 let t1 = _mm256_min_ps(
                     _mm256_min_ps(
-                        slab(node, ray.far[0], scale.x, shift.x),
-                        slab(node, ray.far[1], scale.y, shift.y),
+                        slab::<AVX2>(node, ray.far[0], scale.x, shift.x),
+                        slab::<AVX2>(node, ray.far[1], scale.y, shift.y),
                     ),
-                    _mm256_min_ps(slab(node, ray.far[2], scale.z, shift.z), _mm256_set1_ps(t_max)),
+                    _mm256_min_ps(slab::<AVX2>(node, ray.far[2], scale.z, shift.z), _mm256_set1_ps(t_max)),
                 );
                 _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
                 let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
@@ -231,11 +243,53 @@ impl Stack<'_> {
 }
 
 /// Which node test the traversal uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Isa {
     Scalar,
     #[cfg(target_arch = "x86_64")]
     Avx,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+/// Environment variable that lowers the node test below the best the CPU has: `portable`,
+/// `avx` or `avx2` (to compare them, or to rule one out); other values are ignored.
+pub const ISA_VARIABLE: &str = "PROPSIM_TRAVERSAL";
+
+impl Isa {
+    /// The best node test the CPU has, or the one [`ISA_VARIABLE`] asks for if the CPU has it.
+    fn chosen() -> Self {
+        let best = Self::best();
+        let asked = match std::env::var(ISA_VARIABLE).as_deref() {
+            Ok("portable") => Some(Isa::Scalar),
+            #[cfg(target_arch = "x86_64")]
+            Ok("avx") => Some(Isa::Avx),
+            #[cfg(target_arch = "x86_64")]
+            Ok("avx2") => Some(Isa::Avx2),
+            _ => None,
+        };
+        asked.filter(|a| *a <= best).unwrap_or(best)
+    }
+
+    /// The best node test the CPU has.
+    fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx = is_x86_feature_detected!("avx")
+                && is_x86_feature_detected!("fma")
+                && is_x86_feature_detected!("sse4.1")
+                && is_x86_feature_detected!("popcnt");
+            if avx && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("bmi1") {
+                Isa::Avx2
+            } else if avx {
+                Isa::Avx
+            } else {
+                Isa::Scalar
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Isa::Scalar
+    }
 }
 
 /// The traversal over a CWBVH's nodes: what a query needs besides the nodes themselves.
@@ -276,25 +330,21 @@ fn child_index(node: &CwBvhNode, slot: usize) -> u32 {
 impl Traverser {
     /// The traversal of `nodes`, with the best node test this CPU has.
     pub fn new(nodes: &[CwBvhNode]) -> Self {
-        #[cfg(target_arch = "x86_64")]
-        let isa = if is_x86_feature_detected!("avx")
-            && is_x86_feature_detected!("fma")
-            && is_x86_feature_detected!("sse4.1")
-            && is_x86_feature_detected!("popcnt")
-        {
-            Isa::Avx
-        } else {
-            Isa::Scalar
-        };
-        #[cfg(not(target_arch = "x86_64"))]
-        let isa = Isa::Scalar;
-        Self { isa, stack_len: 7 * (depth(nodes) + 1) }
+        Self { isa: Isa::chosen(), stack_len: 7 * (depth(nodes) + 1) }
     }
 
-    /// The portable traversal, whatever the CPU: for tests against the SIMD one.
+    /// Every traversal this CPU can run, the portable one first: for tests of one against
+    /// the others.
     #[cfg(test)]
-    pub(crate) fn portable(nodes: &[CwBvhNode]) -> Self {
-        Self { isa: Isa::Scalar, ..Self::new(nodes) }
+    pub(crate) fn all_available(nodes: &[CwBvhNode]) -> Vec<Self> {
+        let stack_len = Self::new(nodes).stack_len;
+        let best = Isa::best();
+        let mut all = vec![Self { isa: Isa::Scalar, stack_len }];
+        #[cfg(target_arch = "x86_64")]
+        all.extend(
+            [Isa::Avx, Isa::Avx2].into_iter().filter(|i| *i <= best).map(|isa| Self { isa, stack_len }),
+        );
+        all
     }
 
     /// Runs `f` with a stack large enough for this tree.
@@ -321,6 +371,9 @@ impl Traverser {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaves, s) }),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => self.with_stack(|s| unsafe { closest_avx2(nodes, ray, t_max, leaves, s) }),
         }
     }
 
@@ -336,6 +389,9 @@ impl Traverser {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaves, s) }),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => self.with_stack(|s| unsafe { any_avx2(nodes, ray, t_max, leaves, s) }),
         }
     }
 }
@@ -349,7 +405,7 @@ fn closest_avx(
     leaves: &mut impl ClosestLeaves,
     stack: Stack<'_>,
 ) {
-    closest_loop::<avx::AvxTest>(nodes, ray, t_max, leaves, stack);
+    closest_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack);
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -361,7 +417,31 @@ fn any_avx(
     leaves: &mut impl AnyLeaves,
     stack: Stack<'_>,
 ) -> bool {
-    any_loop::<avx::AvxTest>(nodes, ray, t_max, leaves, stack)
+    any_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
+fn closest_avx2(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl ClosestLeaves,
+    stack: Stack<'_>,
+) {
+    closest_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
+fn any_avx2(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl AnyLeaves,
+    stack: Stack<'_>,
+) -> bool {
+    any_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack)
 }
 
 #[inline(always)]
