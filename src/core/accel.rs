@@ -232,6 +232,11 @@ impl AnyLeaves for Occlusion<'_> {
         let hits = self.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
         hits.mask & hits.t.cmplt(Vec4::splat(self.ray.t_max)).bitmask() != 0
     }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.leaves.prefetch(first, count);
+    }
 }
 
 /// The leaf test of an all-hits query.
@@ -253,6 +258,10 @@ impl<F: FnMut(Hit)> AnyLeaves for AllHits<'_, F> {
             (self.f)(self.mesh.make_hit((first, count, lane), t, uv, self.ray));
         }
         false
+    }
+
+    fn prefetch(&self, first: u32, count: u32) {
+        self.mesh.leaves.prefetch(first, count);
     }
 }
 

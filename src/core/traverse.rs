@@ -312,6 +312,8 @@ pub trait ClosestLeaves {
 pub trait AnyLeaves {
     /// Tests primitives `first..first + count`; returns true to stop the traversal.
     fn test(&mut self, first: u32, count: u32) -> bool;
+    /// A hint that leaf `(first, count)` is tested next; loads it into the cache.
+    fn prefetch(&self, _first: u32, _count: u32) {}
 }
 
 /// Primitive range `(first, count)` of leaf child `slot`.
@@ -543,6 +545,13 @@ fn any_loop<T: NodeTest>(
         let (hits, _) = T::hits(node, ray, t_max);
         let imask = u32::from(node.imask);
         let mut leaves = hits & !imask;
+        let mut ahead = leaves;
+        while ahead != 0 {
+            let slot = ahead.trailing_zeros() as usize;
+            ahead &= ahead - 1;
+            let (first, count) = leaf_range(node, slot);
+            visitor.prefetch(first, count);
+        }
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
