@@ -8,18 +8,19 @@
 
 use std::time::Duration;
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::ray::{Ray as BvhRay, RayHit};
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
 use super::hit::{Hit, PrimitiveKind};
+use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
+use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
 use super::triangle::{RayShear, TriangleRt};
 
 /// BVH build quality presets, from obvhs.
@@ -67,20 +68,18 @@ impl Boundable for Bounds {
     }
 }
 
-/// The obvhs ray. Adding +0.0 turns -0.0 direction components into +0.0: obvhs picks slab
-/// sides by `dir < 0` but inverts -0.0 to a negative number, which made axis-aligned rays
-/// (e.g. straight down, `-Vec3::Z`) miss every flat box.
+/// The node-test constants of a ray (see [`NodeRay`] for the -0.0 fix).
 #[inline]
-fn to_bvh_ray(ray: &Ray) -> BvhRay {
-    let dir = Vec3A::from(ray.dir) + Vec3A::ZERO;
-    BvhRay::new(ray.origin.into(), dir, ray.t_min, ray.t_max)
+fn node_ray(ray: &Ray) -> NodeRay {
+    NodeRay::new(ray.origin, ray.dir, ray.t_min)
 }
 
 /// A CWBVH over one mesh's triangles.
 pub struct MeshBvh {
     bvh: CwBvh,
-    /// Triangles in BVH leaf order.
-    tris: Vec<TriangleRt>,
+    traverser: Traverser,
+    /// Triangles in BVH leaf order, packed leaf by leaf.
+    leaves: LeafTriangles,
     /// Mesh triangle index of each entry of `tris`.
     mesh_index: Vec<u32>,
     /// Surface id of each entry of `tris`.
@@ -93,7 +92,8 @@ impl MeshBvh {
         if n == 0 {
             return Self {
                 bvh: CwBvh::default(),
-                tris: Vec::new(),
+                traverser: Traverser::new(&[]),
+                leaves: LeafTriangles::default(),
                 mesh_index: Vec::new(),
                 surface: Vec::new(),
             };
@@ -112,33 +112,36 @@ impl MeshBvh {
         bvh.primitive_indices = Vec::new();
         let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
         let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
-        Self { bvh, tris: ordered, mesh_index, surface }
+        let leaves = LeafTriangles::new(&ordered, &leaf_ranges(&bvh.nodes));
+        drop(ordered);
+        let traverser = Traverser::new(&bvh.nodes);
+        Self { bvh, traverser, leaves, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
     pub fn memory_bytes(&self) -> usize {
         self.bvh.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
-            + self.tris.len() * std::mem::size_of::<TriangleRt>()
+            + self.leaves.memory_bytes()
             + self.mesh_index.len() * 8
     }
 
-    /// Leaf-order slot and distance of the closest hit.
+    /// The closest hit as (leaf, lane, distance, barycentrics).
     #[inline]
-    fn closest_slot(&self, ray: &Ray) -> Option<(usize, f32)> {
-        if self.tris.is_empty() {
-            return None;
-        }
-        let mut rh = RayHit::none();
-        let tris = &self.tris;
-        let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self
-            .bvh
-            .ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax));
-        hit.then_some((rh.primitive_id as usize, rh.t))
+    fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
+        let mut visitor = ClosestTriangle {
+            leaves: &self.leaves,
+            shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)),
+            t_min: ray.t_min,
+            best: None,
+        };
+        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+        visitor.best
     }
 
-    fn make_hit(&self, slot: usize, t: f32, uv: Vec2, ray: &Ray) -> Hit {
-        let normal = self.tris[slot].normal();
+    /// The hit on triangle `lane` of leaf `(first, count)`.
+    fn make_hit(&self, (first, count, lane): (u32, u32, u32), t: f32, uv: Vec2, ray: &Ray) -> Hit {
+        let normal = self.leaves.triangle(first, count, lane as usize).normal();
+        let slot = (first + lane) as usize;
         Hit {
             t,
             point: ray.at(t),
@@ -152,56 +155,127 @@ impl MeshBvh {
     }
 
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
-        if self.tris.is_empty() {
-            return None;
-        }
-        // As `closest_slot`, keeping the barycentrics of the closest hit so far (obvhs only
-        // records a candidate that is strictly closer than the current best, as here).
-        let mut rh = RayHit::none();
-        let mut best_uv = Vec2::ZERO;
-        let tris = &self.tris;
-        let shear = RayShear::new(ray.origin, ray.dir);
-        let hit = self.bvh.ray_traverse(to_bvh_ray(ray), &mut rh, |r, id| {
-            match tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
-                Some((t, uv)) if t < r.tmax => {
-                    best_uv = uv;
-                    t
-                }
-                _ => f32::INFINITY,
-            }
-        });
-        if !hit {
-            return None;
-        }
-        Some(self.make_hit(rh.primitive_id as usize, rh.t, best_uv, ray))
+        self.closest_lane(ray).map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, ray))
     }
 
     /// Mesh index of the closest triangle hit, without building a full [`Hit`].
     pub fn closest_triangle(&self, ray: &Ray) -> Option<(u32, f32)> {
-        self.closest_slot(ray).map(|(slot, t)| (self.mesh_index[slot], t))
+        self.closest_lane(ray).map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t))
     }
 
-    /// True when any triangle lies on the segment `(t_min, t_max]`.
+    /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if self.tris.is_empty() {
-            return false;
-        }
-        let tris = &self.tris;
-        let shear = RayShear::new(ray.origin, ray.dir);
-        !self.bvh.ray_traverse_miss(to_bvh_ray(ray), |r, id| tris[id].intersect_t(&shear, r.tmin, r.tmax))
+        let mut visitor =
+            Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray };
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
-    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
-        if self.tris.is_empty() {
-            return;
-        }
-        let shear = RayShear::new(ray.origin, ray.dir);
-        self.bvh.ray_traverse_anyhit(to_bvh_ray(ray), |r, id| {
-            if let Some((t, uv)) = self.tris[id].intersect_sheared(&shear, r.tmin, r.tmax) {
-                f(self.make_hit(id, t, uv, ray));
+    pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
+        let mut visitor =
+            AllHits { mesh: self, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray, f };
+        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+    }
+}
+
+/// The closest hit found so far: lane `lane` of the leaf `(first, count)`.
+#[derive(Clone, Copy, Debug)]
+struct ClosestLane {
+    first: u32,
+    count: u32,
+    lane: u32,
+    t: f32,
+    uv: Vec2,
+}
+
+/// The leaf test of a closest-hit query.
+struct ClosestTriangle<'a> {
+    leaves: &'a LeafTriangles,
+    shear: LeafRay,
+    t_min: f32,
+    best: Option<ClosestLane>,
+}
+
+impl ClosestLeaves for ClosestTriangle<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32, t_max: &mut f32) {
+        let hits = self.leaves.intersect(first, count, &self.shear, self.t_min, *t_max);
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros();
+            mask &= mask - 1;
+            let (t, uv) = hits.lane(lane as usize);
+            // Only a strictly closer hit replaces the best one.
+            if t < *t_max {
+                *t_max = t;
+                self.best = Some(ClosestLane { first, count, lane, t, uv });
             }
-        });
+        }
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.leaves.prefetch(first, count);
+    }
+}
+
+/// The leaf test of an occlusion query.
+struct Occlusion<'a> {
+    leaves: &'a LeafTriangles,
+    shear: LeafRay,
+    ray: &'a Ray,
+}
+
+impl AnyLeaves for Occlusion<'_> {
+    #[inline(always)]
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let hits = self.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
+        hits.mask & hits.t.cmplt(Vec4::splat(self.ray.t_max)).bitmask() != 0
+    }
+
+    #[inline(always)]
+    fn prefetch(&self, first: u32, count: u32) {
+        self.leaves.prefetch(first, count);
+    }
+}
+
+/// The leaf test of an all-hits query.
+struct AllHits<'a, F> {
+    mesh: &'a MeshBvh,
+    shear: LeafRay,
+    ray: &'a Ray,
+    f: F,
+}
+
+impl<F: FnMut(Hit)> AnyLeaves for AllHits<'_, F> {
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let hits = self.mesh.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
+        let mut mask = hits.mask;
+        while mask != 0 {
+            let lane = mask.trailing_zeros();
+            mask &= mask - 1;
+            let (t, uv) = hits.lane(lane as usize);
+            (self.f)(self.mesh.make_hit((first, count, lane), t, uv, self.ray));
+        }
+        false
+    }
+
+    fn prefetch(&self, first: u32, count: u32) {
+        self.mesh.leaves.prefetch(first, count);
+    }
+}
+
+/// The leaf visit of a sphere BVH: every candidate sphere index goes to `f`.
+struct SphereCandidates<'a, F> {
+    order: &'a [u32],
+    f: F,
+}
+
+impl<F: FnMut(usize)> AnyLeaves for SphereCandidates<'_, F> {
+    fn test(&mut self, first: u32, count: u32) -> bool {
+        let range = first as usize..(first + count) as usize;
+        self.order[range].iter().for_each(|&i| (self.f)(i as usize));
+        false
     }
 }
 
@@ -212,7 +286,7 @@ const SPHERE_LINEAR_LIMIT: usize = 16;
 #[derive(Default)]
 pub struct SphereSet {
     pub spheres: Vec<Sphere>,
-    bvh: Option<CwBvh>,
+    bvh: Option<(CwBvh, Traverser)>,
 }
 
 impl SphereSet {
@@ -220,7 +294,9 @@ impl SphereSet {
         let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
             let bounds: Vec<Bounds> =
                 spheres.iter().map(|s| padded_bounds(s.aabb_min(), s.aabb_max())).collect();
-            build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default())
+            let bvh = build_cwbvh(&bounds, BvhBuildParams::medium_build(), &mut Duration::default());
+            let traverser = Traverser::new(&bvh.nodes);
+            (bvh, traverser)
         });
         Self { spheres, bvh }
     }
@@ -230,11 +306,12 @@ impl SphereSet {
     }
 
     /// Calls `f(index)` for every sphere whose bounds the ray segment may cross.
-    fn candidates(&self, ray: &Ray, mut f: impl FnMut(usize)) {
+    fn candidates(&self, ray: &Ray, f: impl FnMut(usize)) {
         match &self.bvh {
             None => (0..self.spheres.len()).for_each(f),
-            Some(bvh) => {
-                bvh.ray_traverse_anyhit(to_bvh_ray(ray), |_, id| f(bvh.primitive_indices[id] as usize))
+            Some((bvh, traverser)) => {
+                let mut visitor = SphereCandidates { order: &bvh.primitive_indices, f };
+                traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
             }
         }
     }
@@ -370,4 +447,59 @@ pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> b
         })
         .count();
     votes * 2 > PARITY_DIRECTIONS.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::rng::{stream, uniform};
+    use crate::core::sampling::uniform_sphere;
+
+    #[test]
+    fn simd_and_portable_traversals_agree() {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("a");
+        let mut r = stream(3, 0, 0);
+        for _ in 0..3000 {
+            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 - 20.0;
+            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 3.0;
+            let tri = [corner(), corner(), corner()];
+            mesh.push_triangle(tri, s);
+        }
+        // Axis-aligned triangles too, for flat boxes and -0.0 directions.
+        mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 6, s);
+        let reference = {
+            let mut m = MeshBvh::build(&mesh, BuildQuality::default());
+            m.traverser = Traverser::all_available(&m.bvh.nodes)[0];
+            m
+        };
+        let mut simd = MeshBvh::build(&mesh, BuildQuality::default());
+        let variants = Traverser::all_available(&simd.bvh.nodes);
+        eprintln!("traversals compared to the portable one: {:?}", &variants[1..]);
+        for variant in &variants[1..] {
+            simd.traverser = *variant;
+            compare(&reference, &simd);
+        }
+    }
+
+    fn compare(portable: &MeshBvh, simd: &MeshBvh) {
+        for k in 0..20_000u64 {
+            let mut r = stream(4, 1, k);
+            let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;
+            let mut d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+            if k % 7 == 0 {
+                d = [Vec3::X, -Vec3::Y, -Vec3::Z][(k % 3) as usize];
+            }
+            let ray = Ray::segment(o, d, 5.0 + 40.0 * uniform(&mut r));
+            assert_eq!(simd.closest_triangle(&ray), portable.closest_triangle(&ray), "ray {k}");
+            assert_eq!(simd.occluded(&ray), portable.occluded(&ray), "ray {k}");
+            assert_eq!(simd.occluded(&ray), simd.closest_triangle(&ray).is_some(), "ray {k}");
+            let (mut a, mut b) = (Vec::new(), Vec::new());
+            simd.for_each_hit(&ray, |h| a.push(h.primitive));
+            portable.for_each_hit(&ray, |h| b.push(h.primitive));
+            a.sort_unstable();
+            b.sort_unstable();
+            assert_eq!(a, b, "ray {k}");
+        }
+    }
 }

@@ -5,6 +5,7 @@ pub mod accel;
 pub mod fixed;
 pub mod hit;
 pub mod launcher;
+pub mod leaf;
 pub mod mesh;
 pub mod ray;
 pub mod rng;
@@ -12,6 +13,8 @@ pub mod sampling;
 pub mod share;
 pub mod spectrum;
 pub mod sphere;
+#[allow(unsafe_code)]
+pub mod traverse;
 pub mod triangle;
 
 pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};

@@ -11,12 +11,12 @@ use super::ray::Ray;
 #[derive(Clone, Copy, Debug)]
 pub struct RayShear {
     pub origin: Vec3A,
-    kx: usize,
-    ky: usize,
-    kz: usize,
-    sx: f32,
-    sy: f32,
-    sz: f32,
+    pub(crate) kx: usize,
+    pub(crate) ky: usize,
+    pub(crate) kz: usize,
+    pub(crate) sx: f32,
+    pub(crate) sy: f32,
+    pub(crate) sz: f32,
 }
 
 impl RayShear {

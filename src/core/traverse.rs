@@ -1,0 +1,609 @@
+//! Ray traversal of an obvhs compressed wide BVH (CWBVH, Ylitie et al. 2017): our own stack
+//! loop over obvhs' node data, specialised for closest hit (children visited nearest first,
+//! stack entries culled by distance) and for any hit (occlusion, all hits).
+//!
+//! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
+//! widening of the quantised planes where present) in one 8-wide pass, otherwise by a scalar
+//! loop. The node test is chosen at run time, so the binary still runs on any x86-64;
+//! [`ISA_VARIABLE`] can lower it.
+//! Both are conservative in the same way as obvhs' own test: the child boxes are quantised
+//! outwards, and [`crate::core::accel`] pads primitive bounds by a few ulps, which covers the
+//! rounding of the slab distances. A direction component of -0.0 is turned into +0.0 first,
+//! so the near side of every slab agrees with the sign of the inverse direction.
+
+use std::mem::{MaybeUninit, offset_of};
+
+use glam::{Vec3, Vec3A};
+use obvhs::cwbvh::node::CwBvhNode;
+
+/// Stack entries held on the thread's stack; deeper trees use a heap stack.
+const INLINE_STACK: usize = 256;
+
+/// The per-ray constants of the node test.
+#[derive(Clone, Copy, Debug)]
+pub struct NodeRay {
+    origin: Vec3A,
+    inv_dir: Vec3A,
+    /// Byte offsets into a [`CwBvhNode`] of the near and far quantised planes, per axis.
+    near: [usize; 3],
+    far: [usize; 3],
+    t_min: f32,
+}
+
+/// `1/x` without infinities: obvhs' `safe_inverse`, so a zero direction component gives a
+/// large finite slope and the slab products stay finite (no `0 * inf`).
+#[inline(always)]
+fn safe_inverse(x: f32) -> f32 {
+    if x.abs() <= f32::EPSILON { x.signum() / f32::EPSILON } else { 1.0 / x }
+}
+
+impl NodeRay {
+    /// Node-test constants of the ray `origin + t dir`, `t` in `(t_min, ..]`.
+    #[inline(always)]
+    pub fn new(origin: Vec3, dir: Vec3, t_min: f32) -> Self {
+        // +0.0 turns -0.0 into +0.0, so the sign tests below and `safe_inverse` agree.
+        let dir = Vec3A::from(dir) + Vec3A::ZERO;
+        let inv_dir = Vec3A::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
+        let lo = [
+            offset_of!(CwBvhNode, child_min_x),
+            offset_of!(CwBvhNode, child_min_y),
+            offset_of!(CwBvhNode, child_min_z),
+        ];
+        let hi = [
+            offset_of!(CwBvhNode, child_max_x),
+            offset_of!(CwBvhNode, child_max_y),
+            offset_of!(CwBvhNode, child_max_z),
+        ];
+        let neg = [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0];
+        let pick = |k: usize, near: bool| if neg[k] == near { hi[k] } else { lo[k] };
+        Self {
+            origin: origin.into(),
+            inv_dir,
+            near: [pick(0, true), pick(1, true), pick(2, true)],
+            far: [pick(0, false), pick(1, false), pick(2, false)],
+            t_min: t_min.max(0.0),
+        }
+    }
+}
+
+/// The eight quantised planes at byte `offset` of `node`.
+#[inline(always)]
+fn planes(node: &CwBvhNode, offset: usize) -> [u8; 8] {
+    let at = |k: usize| match k {
+        0 => node.child_min_x,
+        1 => node.child_max_x,
+        2 => node.child_min_y,
+        3 => node.child_max_y,
+        4 => node.child_min_z,
+        _ => node.child_max_z,
+    };
+    at((offset - offset_of!(CwBvhNode, child_min_x)) / 8)
+}
+
+/// Slab slopes and offsets of a node for a ray: the distance to quantised plane `q` along axis
+/// `k` is `q * scale[k] + shift[k]`.
+#[inline(always)]
+fn node_frame(node: &CwBvhNode, ray: &NodeRay) -> (Vec3A, Vec3A) {
+    let extent = Vec3A::new(
+        f32::from_bits(u32::from(node.e[0]) << 23),
+        f32::from_bits(u32::from(node.e[1]) << 23),
+        f32::from_bits(u32::from(node.e[2]) << 23),
+    );
+    (extent * ray.inv_dir, (Vec3A::from(node.p) - ray.origin) * ray.inv_dir)
+}
+
+/// Bit `i` set when child slot `i` is not empty.
+#[inline(always)]
+fn occupied(node: &CwBvhNode) -> u32 {
+    node.child_meta.iter().enumerate().fold(0, |m, (i, &c)| m | (u32::from(c != 0) << i))
+}
+
+/// Child boxes hit on `(t_min, t_max]`: the slot mask and each slot's entry distance.
+#[inline(always)]
+fn node_hits_scalar(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+    let (scale, shift) = node_frame(node, ray);
+    let near = [planes(node, ray.near[0]), planes(node, ray.near[1]), planes(node, ray.near[2])];
+    let far = [planes(node, ray.far[0]), planes(node, ray.far[1]), planes(node, ray.far[2])];
+    let mut tnear = [0.0f32; 8];
+    let mut mask = 0;
+    for i in 0..8 {
+        let t = |q: u8, k: usize| f32::from(q) * scale[k] + shift[k];
+        let t0 = t(near[0][i], 0).max(t(near[1][i], 1)).max(t(near[2][i], 2)).max(ray.t_min);
+        let t1 = t(far[0][i], 0).min(t(far[1][i], 1)).min(t(far[2][i], 2)).min(t_max);
+        tnear[i] = t0;
+        mask |= u32::from(t0 <= t1) << i;
+    }
+    (mask & occupied(node), tnear)
+}
+
+/// A test of a node's eight child boxes: the mask of slots hit on `(t_min, t_max]` and each
+/// slot's entry distance.
+trait NodeTest {
+    fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
+}
+
+/// The portable node test.
+struct ScalarTest;
+
+impl NodeTest for ScalarTest {
+    #[inline(always)]
+    fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+        node_hits_scalar(node, ray, t_max)
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx {
+    use std::arch::x86_64::*;
+
+    use super::{CwBvhNode, NodeRay, NodeTest, node_frame};
+
+    /// The 8-wide node test; every function here is `inline(always)` so that it ends up in
+    /// the `target_feature` functions that call it, where the intrinsics inline too.
+    /// With `AVX2`, the eight plane bytes widen in one instruction.
+    pub(super) struct AvxTest<const AVX2: bool>;
+
+    /// Distances to the eight quantised planes at byte `offset` of `node` along an axis with
+    /// slab slope `scale` and offset `shift`.
+    ///
+    /// # Safety
+    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`), and `offset + 8` must not
+    /// exceed the node size.
+    #[inline(always)]
+    unsafe fn slab<const AVX2: bool>(node: &CwBvhNode, offset: usize, scale: f32, shift: f32) -> __m256 {
+        debug_assert!(offset + 8 <= size_of::<CwBvhNode>());
+        let p = (node as *const CwBvhNode).cast::<u8>();
+        // SAFETY: per the contract, the eight bytes read lie inside `*node` (unaligned loads)
+        // and the intrinsics' features are present.
+        unsafe {
+            let q = if AVX2 {
+                _mm256_cvtepu8_epi32(_mm_loadl_epi64(p.add(offset).cast()))
+            } else {
+                let lo = _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset).cast::<i32>().read_unaligned()));
+                let hi =
+                    _mm_cvtepu8_epi32(_mm_cvtsi32_si128(p.add(offset + 4).cast::<i32>().read_unaligned()));
+                _mm256_insertf128_si256::<1>(_mm256_castsi128_si256(lo), hi)
+            };
+            _mm256_fmadd_ps(_mm256_cvtepi32_ps(q), _mm256_set1_ps(scale), _mm256_set1_ps(shift))
+        }
+    }
+
+    impl<const AVX2: bool> NodeTest for AvxTest<AVX2> {
+        #[inline(always)]
+        fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+            let (scale, shift) = node_frame(node, ray);
+            let mut tnear = [0.0f32; 8];
+            // SAFETY: `AvxTest` is only used inside functions compiled with AVX, FMA and
+            // SSE4.1, entered after `is_x86_feature_detected!` confirmed them; the plane
+            // offsets are the six of `NodeRay`; the store writes 8 floats into `tnear`.
+            let mask = unsafe {
+                let t0 = _mm256_max_ps(
+                    _mm256_max_ps(
+                        slab::<AVX2>(node, ray.near[0], scale.x, shift.x),
+                        slab::<AVX2>(node, ray.near[1], scale.y, shift.y),
+                    ),
+                    _mm256_max_ps(
+                        slab::<AVX2>(node, ray.near[2], scale.z, shift.z),
+                        _mm256_set1_ps(ray.t_min),
+                    ),
+                );
+                let t1 = _mm256_min_ps(
+                    _mm256_min_ps(
+                        slab::<AVX2>(node, ray.far[0], scale.x, shift.x),
+                        slab::<AVX2>(node, ray.far[1], scale.y, shift.y),
+                    ),
+                    _mm256_min_ps(slab::<AVX2>(node, ray.far[2], scale.z, shift.z), _mm256_set1_ps(t_max)),
+                );
+                _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
+                let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+                let meta = _mm_loadl_epi64(node.child_meta.as_ptr().cast());
+                let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(meta, _mm_setzero_si128())) as u32;
+                hit & !empty & 0xff
+            };
+            (mask, tnear)
+        }
+    }
+}
+
+/// A hint to load the cache line holding `x`.
+#[inline(always)]
+pub fn prefetch<T>(x: &T) {
+    #[cfg(target_arch = "x86_64")]
+    // SAFETY: a prefetch has no effect but on the cache, and SSE is part of x86-64.
+    unsafe {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        _mm_prefetch::<_MM_HINT_T0>((x as *const T).cast());
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = x;
+}
+
+/// A traversal stack of (node, entry distance) pairs.
+struct Stack<'a> {
+    items: &'a mut [MaybeUninit<(u32, f32)>],
+    len: usize,
+}
+
+impl Stack<'_> {
+    #[inline(always)]
+    fn push(&mut self, node: u32, t: f32) {
+        self.items[self.len].write((node, t));
+        self.len += 1;
+    }
+
+    #[inline(always)]
+    fn pop(&mut self) -> Option<(u32, f32)> {
+        if self.len == 0 {
+            return None;
+        }
+        self.len -= 1;
+        // SAFETY: every slot below `len` was written by `push` before `len` passed it.
+        Some(unsafe { self.items.get_unchecked(self.len).assume_init_read() })
+    }
+}
+
+/// Which node test the traversal uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Isa {
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Avx,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+/// Environment variable that lowers the node test below the best the CPU has: `portable`,
+/// `avx` or `avx2` (to compare them, or to rule one out); other values are ignored.
+pub const ISA_VARIABLE: &str = "PROPSIM_TRAVERSAL";
+
+impl Isa {
+    /// The best node test the CPU has, or the one [`ISA_VARIABLE`] asks for if the CPU has it.
+    fn chosen() -> Self {
+        let best = Self::best();
+        let asked = match std::env::var(ISA_VARIABLE).as_deref() {
+            Ok("portable") => Some(Isa::Scalar),
+            #[cfg(target_arch = "x86_64")]
+            Ok("avx") => Some(Isa::Avx),
+            #[cfg(target_arch = "x86_64")]
+            Ok("avx2") => Some(Isa::Avx2),
+            _ => None,
+        };
+        asked.filter(|a| *a <= best).unwrap_or(best)
+    }
+
+    /// The best node test the CPU has.
+    fn best() -> Self {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx = is_x86_feature_detected!("avx")
+                && is_x86_feature_detected!("fma")
+                && is_x86_feature_detected!("sse4.1")
+                && is_x86_feature_detected!("popcnt");
+            if avx && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("bmi1") {
+                Isa::Avx2
+            } else if avx {
+                Isa::Avx
+            } else {
+                Isa::Scalar
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        Isa::Scalar
+    }
+}
+
+/// The traversal over a CWBVH's nodes: what a query needs besides the nodes themselves.
+#[derive(Clone, Copy, Debug)]
+pub struct Traverser {
+    isa: Isa,
+    /// Stack entries a traversal may need: up to 7 pushed per internal level.
+    stack_len: usize,
+}
+
+/// What a closest-hit traversal does at the leaves.
+pub trait ClosestLeaves {
+    /// Tests primitives `first..first + count` (leaf order), lowering `t_max` on a closer hit.
+    fn test(&mut self, first: u32, count: u32, t_max: &mut f32);
+    /// A hint that leaf `(first, count)` is tested next; loads it into the cache.
+    fn prefetch(&self, _first: u32, _count: u32) {}
+}
+
+/// What an any-hit traversal does at the leaves.
+pub trait AnyLeaves {
+    /// Tests primitives `first..first + count`; returns true to stop the traversal.
+    fn test(&mut self, first: u32, count: u32) -> bool;
+    /// A hint that leaf `(first, count)` is tested next; loads it into the cache.
+    fn prefetch(&self, _first: u32, _count: u32) {}
+}
+
+/// Primitive range `(first, count)` of leaf child `slot`.
+#[inline(always)]
+fn leaf_range(node: &CwBvhNode, slot: usize) -> (u32, u32) {
+    let meta = node.child_meta[slot];
+    (node.primitive_base_idx + u32::from(meta & 0b1_1111), (meta >> 5).count_ones())
+}
+
+/// Node index of internal child `slot`.
+#[inline(always)]
+fn child_index(node: &CwBvhNode, slot: usize) -> u32 {
+    node.child_base_idx + (u32::from(node.imask) & ((1u32 << slot) - 1)).count_ones()
+}
+
+impl Traverser {
+    /// The traversal of `nodes`, with the best node test this CPU has.
+    pub fn new(nodes: &[CwBvhNode]) -> Self {
+        Self { isa: Isa::chosen(), stack_len: 7 * (depth(nodes) + 1) }
+    }
+
+    /// Every traversal this CPU can run, the portable one first: for tests of one against
+    /// the others.
+    #[cfg(test)]
+    pub(crate) fn all_available(nodes: &[CwBvhNode]) -> Vec<Self> {
+        let stack_len = Self::new(nodes).stack_len;
+        let best = Isa::best();
+        let mut all = vec![Self { isa: Isa::Scalar, stack_len }];
+        #[cfg(target_arch = "x86_64")]
+        all.extend(
+            [Isa::Avx, Isa::Avx2].into_iter().filter(|i| *i <= best).map(|isa| Self { isa, stack_len }),
+        );
+        all
+    }
+
+    /// Runs `f` with a stack large enough for this tree.
+    #[inline(always)]
+    fn with_stack<R>(&self, f: impl FnOnce(Stack<'_>) -> R) -> R {
+        if self.stack_len <= INLINE_STACK {
+            let mut items = [const { MaybeUninit::uninit() }; INLINE_STACK];
+            f(Stack { items: &mut items, len: 0 })
+        } else {
+            let mut items = vec![MaybeUninit::uninit(); self.stack_len];
+            f(Stack { items: &mut items, len: 0 })
+        }
+    }
+
+    /// Closest-hit traversal of `nodes` for `ray` up to `t_max`: `leaves` tests each
+    /// leaf whose box the ray enters before the current closest distance, nearest boxes first.
+    #[inline]
+    pub fn closest(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl ClosestLeaves) {
+        if nodes.is_empty() {
+            return;
+        }
+        match self.isa {
+            Isa::Scalar => self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaves, s) }),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => self.with_stack(|s| unsafe { closest_avx2(nodes, ray, t_max, leaves, s) }),
+        }
+    }
+
+    /// Any-hit traversal: `leaves` tests every leaf whose box the ray crosses on
+    /// `(t_min, t_max]` until it returns true. Returns whether it did.
+    #[inline]
+    pub fn any(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl AnyLeaves) -> bool {
+        if nodes.is_empty() {
+            return false;
+        }
+        match self.isa {
+            Isa::Scalar => self.with_stack(|s| any_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaves, s) }),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => self.with_stack(|s| unsafe { any_avx2(nodes, ray, t_max, leaves, s) }),
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,fma,sse4.1,popcnt")]
+fn closest_avx(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl ClosestLeaves,
+    stack: Stack<'_>,
+) {
+    closest_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx,fma,sse4.1,popcnt")]
+fn any_avx(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl AnyLeaves,
+    stack: Stack<'_>,
+) -> bool {
+    any_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
+fn closest_avx2(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl ClosestLeaves,
+    stack: Stack<'_>,
+) {
+    closest_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack);
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
+fn any_avx2(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    leaves: &mut impl AnyLeaves,
+    stack: Stack<'_>,
+) -> bool {
+    any_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack)
+}
+
+#[inline(always)]
+fn closest_loop<T: NodeTest>(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    mut t_max: f32,
+    visitor: &mut impl ClosestLeaves,
+    mut stack: Stack<'_>,
+) {
+    let mut current = 0u32;
+    loop {
+        let node = &nodes[current as usize];
+        let (hits, tnear) = T::hits(node, ray, t_max);
+        let imask = u32::from(node.imask);
+        let mut leaves = hits & !imask;
+        let mut ahead = leaves;
+        while ahead != 0 {
+            let slot = ahead.trailing_zeros() as usize;
+            ahead &= ahead - 1;
+            let (first, count) = leaf_range(node, slot);
+            visitor.prefetch(first, count);
+        }
+        let entry_t_max = t_max;
+        while leaves != 0 {
+            let slot = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
+            if tnear[slot] <= t_max {
+                let (first, count) = leaf_range(node, slot);
+                visitor.test(first, count, &mut t_max);
+            }
+        }
+        let mut inner = hits & imask;
+        if t_max < entry_t_max {
+            // Drop the children now entered beyond the closest hit.
+            let mut m = inner;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if tnear[slot] > t_max {
+                    inner &= !(1 << slot);
+                }
+            }
+        }
+        match inner.count_ones() {
+            0 => {}
+            1 => {
+                current = child_index(node, inner.trailing_zeros() as usize);
+                continue;
+            }
+            n => {
+                // Sort the children by entry distance, farthest first, and push all but the
+                // nearest, which is visited next.
+                let mut order = [(0u32, 0.0f32); 8];
+                let n = n as usize;
+                for k in 0..n {
+                    let slot = inner.trailing_zeros() as usize;
+                    inner &= inner - 1;
+                    let item = (child_index(node, slot), tnear[slot]);
+                    let mut j = k;
+                    while j > 0 && order[j - 1].1 < item.1 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = item;
+                }
+                for &(c, t) in &order[..n - 1] {
+                    stack.push(c, t);
+                }
+                current = order[n - 1].0;
+                continue;
+            }
+        }
+        loop {
+            match stack.pop() {
+                None => return,
+                Some((c, t)) if t <= t_max => {
+                    current = c;
+                    break;
+                }
+                Some(_) => {}
+            }
+        }
+    }
+}
+
+#[inline(always)]
+fn any_loop<T: NodeTest>(
+    nodes: &[CwBvhNode],
+    ray: &NodeRay,
+    t_max: f32,
+    visitor: &mut impl AnyLeaves,
+    mut stack: Stack<'_>,
+) -> bool {
+    let mut current = 0u32;
+    loop {
+        let node = &nodes[current as usize];
+        let (hits, _) = T::hits(node, ray, t_max);
+        let imask = u32::from(node.imask);
+        let mut leaves = hits & !imask;
+        let mut ahead = leaves;
+        while ahead != 0 {
+            let slot = ahead.trailing_zeros() as usize;
+            ahead &= ahead - 1;
+            let (first, count) = leaf_range(node, slot);
+            visitor.prefetch(first, count);
+        }
+        while leaves != 0 {
+            let slot = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
+            let (first, count) = leaf_range(node, slot);
+            if visitor.test(first, count) {
+                return true;
+            }
+        }
+        let mut inner = hits & imask;
+        if inner == 0 {
+            match stack.pop() {
+                None => return false,
+                Some((c, _)) => current = c,
+            }
+            continue;
+        }
+        current = child_index(node, inner.trailing_zeros() as usize);
+        inner &= inner - 1;
+        while inner != 0 {
+            let slot = inner.trailing_zeros() as usize;
+            inner &= inner - 1;
+            stack.push(child_index(node, slot), 0.0);
+        }
+    }
+}
+
+/// The `(first, count)` primitive ranges of all leaves, in primitive order.
+pub fn leaf_ranges(nodes: &[CwBvhNode]) -> Vec<(u32, u32)> {
+    let mut leaves: Vec<(u32, u32)> = nodes
+        .iter()
+        .flat_map(|n| {
+            (0..8)
+                .filter(|&slot| n.child_meta[slot] != 0 && n.imask & (1 << slot) == 0)
+                .map(|slot| leaf_range(n, slot))
+        })
+        .collect();
+    leaves.sort_unstable();
+    leaves
+}
+
+/// Levels of the tree below the root (0 for a root whose children are all leaves).
+fn depth(nodes: &[CwBvhNode]) -> usize {
+    if nodes.is_empty() {
+        return 0;
+    }
+    // Children are stored after their parent, so one backward pass sees children first.
+    let mut below = vec![0usize; nodes.len()];
+    for i in (0..nodes.len()).rev() {
+        let n = &nodes[i];
+        let count = n.imask.count_ones() as usize;
+        let base = n.child_base_idx as usize;
+        below[i] = (base..base + count).filter_map(|c| below.get(c)).map(|d| d + 1).max().unwrap_or(0);
+    }
+    below[0]
+}
