@@ -21,7 +21,7 @@ use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
 use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
-use super::triangle::{RayShear, TriangleRt};
+use super::triangle::RayShear;
 
 /// BVH build quality presets, from obvhs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -110,10 +110,9 @@ impl MeshBvh {
         // The BVH keeps its own copy of the order; we keep ours next to the triangles.
         let mesh_index = std::mem::take(&mut bvh.primitive_indices);
         bvh.primitive_indices = Vec::new();
-        let ordered: Vec<TriangleRt> = mesh_index.par_iter().map(|&i| mesh.triangle_rt(i as usize)).collect();
-        let surface = mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
-        let leaves = LeafTriangles::new(&ordered, &leaf_ranges(&bvh.nodes));
-        drop(ordered);
+        let surface = mesh_index.par_iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
+        let leaves =
+            LeafTriangles::new(n, &leaf_ranges(&bvh.nodes), |slot| mesh.corners(mesh_index[slot] as usize));
         let traverser = Traverser::new(&bvh.nodes);
         Self { bvh, traverser, leaves, mesh_index, surface }
     }

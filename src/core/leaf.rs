@@ -11,6 +11,7 @@
 //! from both, and the edge functions of an edge shared by two triangles agree exactly.
 
 use glam::{BVec4A, Vec2, Vec3, Vec4};
+use rayon::prelude::*;
 
 use super::traverse::prefetch;
 use super::triangle::{RayShear, TriangleRt};
@@ -64,21 +65,35 @@ pub struct LeafHits {
 }
 
 impl LeafTriangles {
-    /// Packs `tris` (in leaf order) leaf by leaf; `leaves` are the `(first, count)` ranges of
-    /// the BVH's leaves, which tile `0..tris.len()`.
-    pub fn new(tris: &[TriangleRt], leaves: &[(u32, u32)]) -> Self {
-        let mut data = vec![0.0f32; 9 * tris.len() + PAD];
-        for &(first, count) in leaves {
-            let (first, n) = (first as usize, count as usize);
-            let out = &mut data[9 * first..9 * (first + n)];
-            for (lane, tri) in tris[first..first + n].iter().enumerate() {
-                for (v, corner) in [tri.v0, tri.v1, tri.v2].iter().enumerate() {
+    /// Packs `count` triangles leaf by leaf, in parallel: `corners(slot)` gives the corners of
+    /// the triangle at leaf-order slot `slot`; `leaves` are the `(first, count)` ranges of the
+    /// BVH's leaves, sorted, which tile `0..count`.
+    pub fn new(count: usize, leaves: &[(u32, u32)], corners: impl Fn(usize) -> [Vec3; 3] + Sync) -> Self {
+        let mut data = vec![0.0f32; 9 * count + PAD];
+        // Split the output into one disjoint slice per leaf, then fill the leaves in parallel.
+        let mut parts = Vec::with_capacity(leaves.len());
+        let mut rest = &mut data[..9 * count];
+        let mut at = 0;
+        for &(first, n) in leaves {
+            let (first, n) = (first as usize, n as usize);
+            if first < at || 9 * (first - at + n) > rest.len() {
+                continue;
+            }
+            let (_, tail) = std::mem::take(&mut rest).split_at_mut(9 * (first - at));
+            let (leaf, tail) = tail.split_at_mut(9 * n);
+            parts.push((first, n, leaf));
+            (rest, at) = (tail, first + n);
+        }
+        debug_assert_eq!(at, count, "the leaves tile the triangles");
+        parts.into_par_iter().for_each(|(first, n, out)| {
+            for lane in 0..n {
+                for (v, corner) in corners(first + lane).iter().enumerate() {
                     for k in 0..3 {
                         out[(3 * v + k) * n + lane] = corner[k];
                     }
                 }
             }
-        }
+        });
         Self { data }
     }
 
@@ -200,7 +215,7 @@ mod tests {
         // Leaves of 1 and 2 too.
         let mut split = vec![(0, 1), (1, 2)];
         split.extend(leaves.iter().skip(1));
-        let packed = LeafTriangles::new(&tris, &split);
+        let packed = LeafTriangles::new(tris.len(), &split, |i| tris[i].vertices());
         for k in 0..4000u64 {
             let mut r = stream(8, 1, k);
             let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 6.0 - 3.0;
