@@ -149,16 +149,10 @@ impl Cluster {
         if self.size() == 1 {
             return;
         }
-        let mut limbs: Vec<u64> =
-            data.iter().flat_map(|v| (0..4).map(move |k| ((v >> (32 * k)) & 0xffff_ffff) as u64)).collect();
+        let mut limbs = to_limbs(data);
         self.sum_u64(&mut limbs);
         if self.is_root() {
-            for (v, l) in data.iter_mut().zip(limbs.chunks_exact(4)) {
-                *v = l
-                    .iter()
-                    .enumerate()
-                    .fold(0u128, |acc, (k, &x)| acc.wrapping_add(u128::from(x) << (32 * k)));
-            }
+            from_limb_sums(&limbs, data);
         }
     }
 
@@ -175,6 +169,18 @@ impl Cluster {
                 *x = f32::from_bits(b);
             }
         }
+    }
+}
+
+/// Splits each value into four 32-bit limbs, least significant first, one per 64-bit word.
+fn to_limbs(data: &[u128]) -> Vec<u64> {
+    data.iter().flat_map(|v| (0..4).map(move |k| ((v >> (32 * k)) & 0xffff_ffff) as u64)).collect()
+}
+
+/// Reassembles values from sums of their limbs, propagating the carries (modulo 2^128).
+fn from_limb_sums(limbs: &[u64], data: &mut [u128]) {
+    for (v, l) in data.iter_mut().zip(limbs.chunks_exact(4)) {
+        *v = l.iter().enumerate().fold(0u128, |acc, (k, &x)| acc.wrapping_add(u128::from(x) << (32 * k)));
     }
 }
 
@@ -196,45 +202,21 @@ mod tests {
         assert_eq!(c.reduce_cost(), ReduceCost::default());
     }
 
-    /// A fake job of `n` processes inside one: every "rank" hands in its data, and the sum
-    /// is taken like MPI_SUM would.
-    struct Summed(Vec<Vec<u64>>);
-
-    impl Summed {
-        fn total(&self) -> Vec<u64> {
-            let mut out = vec![0u64; self.0[0].len()];
-            for part in &self.0 {
-                for (o, x) in out.iter_mut().zip(part) {
-                    *o = o.wrapping_add(*x);
-                }
-            }
-            out
-        }
-    }
-
     #[test]
     fn limb_sums_of_fixed_point_values_carry_exactly() {
-        // Three ranks whose values overflow 32-bit limbs many times over.
+        // Three ranks whose values overflow 32-bit limbs many times over; MPI_SUM adds the
+        // limbs element-wise in 64-bit words.
         let ranks: Vec<Vec<u128>> = (0..3u128)
             .map(|r| vec![u128::from(u64::MAX) * (r + 1), (1u128 << 95) + r, 0xffff_ffff * r])
             .collect();
-        let limbs = Summed(
-            ranks
-                .iter()
-                .map(|v| {
-                    v.iter()
-                        .flat_map(|x| (0..4).map(move |k| ((x >> (32 * k)) & 0xffff_ffff) as u64))
-                        .collect()
-                })
-                .collect(),
-        )
-        .total();
-        let carried: Vec<u128> = limbs
-            .chunks_exact(4)
-            .map(|l| {
-                l.iter().enumerate().fold(0u128, |acc, (k, &x)| acc.wrapping_add(u128::from(x) << (32 * k)))
-            })
-            .collect();
+        let mut limb_sums = vec![0u64; 12];
+        for v in &ranks {
+            for (s, l) in limb_sums.iter_mut().zip(to_limbs(v)) {
+                *s += l;
+            }
+        }
+        let mut carried = vec![0u128; 3];
+        from_limb_sums(&limb_sums, &mut carried);
         let exact: Vec<u128> = (0..3).map(|i| ranks.iter().map(|v| v[i]).sum()).collect();
         assert_eq!(carried, exact);
     }
