@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use crate::dist::Cluster;
 use crate::render::film::ImageFormat;
-use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render, render_on};
+use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render_on};
 use crate::scene::{self, LoadOptions, World};
 
 /// The scene `propsim render` uses when given none.
@@ -113,18 +113,6 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
     let mut cam = Camera::look_at(eye, target, up, fov, aspect).map_err(|e| anyhow!("{e}"))?;
     cam.set_lens(lens.0, lens.1).map_err(|e| anyhow!("{e}"))?;
     Ok(cam)
-}
-
-/// Renders with a progress bar on a terminal (quiet when stderr is piped).
-pub fn render_with_progress(
-    scene: &RenderScene,
-    cam: &Camera,
-    s: &RenderSettings,
-) -> anyhow::Result<RenderOutput> {
-    let bar = super::progress::bar(u64::from(s.width) * u64::from(s.height), "rendering");
-    let out = render(scene, cam, s, &|n| bar.inc(n)).map_err(|e| anyhow!("{e}"))?;
-    bar.finish_and_clear();
-    Ok(out)
 }
 
 pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
