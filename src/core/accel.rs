@@ -10,8 +10,12 @@ use std::time::Duration;
 
 use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
+use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
+use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::builder::build_cwbvh;
+use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
@@ -20,7 +24,10 @@ use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
-use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
+use super::traverse::{
+    AnyLeaves, ClosestLeaves, NodeRay, Traverser, WIDE_MAX_PRIMITIVES, WideBvhNode, WideChild, WideNode,
+    leaf_ranges,
+};
 use super::triangle::RayShear;
 
 /// BVH build quality presets, from obvhs.
@@ -74,9 +81,11 @@ fn node_ray(ray: &Ray) -> NodeRay {
     NodeRay::new(ray.origin, ray.dir, ray.t_min)
 }
 
-/// A CWBVH over one mesh's triangles.
+/// An 8-wide BVH over one mesh's triangles: built by obvhs (PLOC, reinsertion, then the
+/// SAH-driven collapse to 8 children of Ylitie et al. 2017), then stored uncompressed as
+/// [`WideNode`]s with the exact float boxes of the children.
 pub struct MeshBvh {
-    bvh: CwBvh,
+    nodes: Vec<WideNode>,
     traverser: Traverser,
     /// Triangles in BVH leaf order, packed leaf by leaf.
     leaves: LeafTriangles,
@@ -86,18 +95,30 @@ pub struct MeshBvh {
     surface: Vec<u32>,
 }
 
+/// Stage times of a build, printed to stderr when this variable is set.
+const BUILD_TIMES_VARIABLE: &str = "PROPSIM_BUILD_TIMES";
+
 impl MeshBvh {
     pub fn build(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
         let n = mesh.triangle_count();
         if n == 0 {
             return Self {
-                bvh: CwBvh::default(),
-                traverser: Traverser::new(&[]),
+                nodes: Vec::new(),
+                traverser: Traverser::new::<WideNode>(&[]),
                 leaves: LeafTriangles::default(),
                 mesh_index: Vec::new(),
                 surface: Vec::new(),
             };
         }
+        assert!(n < WIDE_MAX_PRIMITIVES, "{n} triangles: at most {WIDE_MAX_PRIMITIVES} in one BVH");
+        let verbose = std::env::var_os(BUILD_TIMES_VARIABLE).is_some();
+        let mut clock = std::time::Instant::now();
+        let mut stage = |name: &str| {
+            if verbose {
+                eprintln!("build {name}: {:.1} ms", clock.elapsed().as_secs_f64() * 1e3);
+            }
+            clock = std::time::Instant::now();
+        };
         let bounds: Vec<Bounds> = (0..n)
             .into_par_iter()
             .map(|i| {
@@ -105,21 +126,40 @@ impl MeshBvh {
                 padded_bounds(a.min(b).min(c), a.max(b).max(c))
             })
             .collect();
-        let mut bvh = build_cwbvh(&bounds, quality.params(), &mut Duration::default());
+        stage("bounds");
+        let p = quality.params();
+        let mut bvh2 = PlocBuilder::with_capacity(n).build(
+            p.ploc_search_distance,
+            &bounds,
+            (0..n as u32).collect(),
+            p.sort_precision,
+            p.search_depth_threshold,
+        );
+        stage("ploc");
+        ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
+        stage("reinsertion");
+        let cw = bvh2_to_cwbvh(&bvh2, p.max_prims_per_leaf.clamp(1, 3), true, false);
+        drop(bvh2);
+        stage("collapse");
+        let mesh_index = cw.primitive_indices;
+        let nodes = wide_nodes(&cw.nodes, |first, count| {
+            let (first, count) = (first as usize, count as usize);
+            mesh_index[first..first + count].iter().fold(Aabb::empty(), |b, &i| b.union(&bounds[i as usize].0))
+        });
         drop(bounds);
-        // The BVH keeps its own copy of the order; we keep ours next to the triangles.
-        let mesh_index = std::mem::take(&mut bvh.primitive_indices);
-        bvh.primitive_indices = Vec::new();
+        stage("wide nodes");
         let surface = mesh_index.par_iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
         let leaves =
-            LeafTriangles::new(n, &leaf_ranges(&bvh.nodes), |slot| mesh.corners(mesh_index[slot] as usize));
-        let traverser = Traverser::new(&bvh.nodes);
-        Self { bvh, traverser, leaves, mesh_index, surface }
+            LeafTriangles::new(n, &leaf_ranges(&cw.nodes), |slot| mesh.corners(mesh_index[slot] as usize));
+        stage("leaves");
+        let traverser = Traverser::new(&nodes);
+        stage("traverser");
+        Self { nodes, traverser, leaves, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
     pub fn memory_bytes(&self) -> usize {
-        self.bvh.nodes.len() * std::mem::size_of::<obvhs::cwbvh::node::CwBvhNode>()
+        self.nodes.len() * std::mem::size_of::<WideNode>()
             + self.leaves.memory_bytes()
             + self.mesh_index.len() * 8
     }
@@ -133,7 +173,7 @@ impl MeshBvh {
             t_min: ray.t_min,
             best: None,
         };
-        self.traverser.closest(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+        self.traverser.closest(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
         visitor.best
     }
 
@@ -166,15 +206,50 @@ impl MeshBvh {
     pub fn occluded(&self, ray: &Ray) -> bool {
         let mut visitor =
             Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray };
-        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor)
+        self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
     pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
         let mut visitor =
             AllHits { mesh: self, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray, f };
-        self.traverser.any(&self.bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
+        self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
     }
+}
+
+/// The [`WideNode`]s of a CWBVH, same indices and slots, with float child boxes: a leaf's
+/// box is `leaf_box(first, count)`, an internal child's the union of its own children's.
+fn wide_nodes(cw: &[CwBvhNode], leaf_box: impl Fn(u32, u32) -> Aabb + Sync) -> Vec<WideNode> {
+    let mut nodes: Vec<WideNode> = cw
+        .par_iter()
+        .map(|node| {
+            let mut w = WideNode::default();
+            let (inner, occupied) = (node.inner_mask(), node.occupied_mask());
+            for slot in (0..8).filter(|s| occupied & (1 << s) != 0) {
+                if inner & (1 << slot) != 0 {
+                    // The box is filled in below, once the child's own children are known.
+                    w.set(slot, Vec3::ZERO, Vec3::ZERO, WideChild::Node(node.child(slot)));
+                } else {
+                    let (first, count) = node.leaf(slot);
+                    let b = leaf_box(first, count);
+                    w.set(slot, b.min.into(), b.max.into(), WideChild::Leaf(first, count));
+                }
+            }
+            w
+        })
+        .collect();
+    // Children are stored after their parents: a backward pass sees each child complete.
+    for i in (0..nodes.len()).rev() {
+        let mut inner = nodes[i].inner_mask();
+        while inner != 0 {
+            let slot = inner.trailing_zeros() as usize;
+            inner &= inner - 1;
+            let child = nodes[i].child(slot);
+            let (lo, hi) = nodes[child as usize].bounds();
+            nodes[i].set(slot, lo, hi, WideChild::Node(child));
+        }
+    }
+    nodes
 }
 
 /// The closest hit found so far: lane `lane` of the leaf `(first, count)`.
@@ -469,11 +544,11 @@ mod tests {
         mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 6, s);
         let reference = {
             let mut m = MeshBvh::build(&mesh, BuildQuality::default());
-            m.traverser = Traverser::all_available(&m.bvh.nodes)[0];
+            m.traverser = Traverser::all_available(&m.nodes)[0];
             m
         };
         let mut simd = MeshBvh::build(&mesh, BuildQuality::default());
-        let variants = Traverser::all_available(&simd.bvh.nodes);
+        let variants = Traverser::all_available(&simd.nodes);
         eprintln!("traversals compared to the portable one: {:?}", &variants[1..]);
         for variant in &variants[1..] {
             simd.traverser = *variant;
