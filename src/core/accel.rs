@@ -12,9 +12,9 @@ use glam::{Vec2, Vec3, Vec4};
 use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
-use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
+use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
@@ -24,10 +24,7 @@ use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
-use super::traverse::{
-    AnyLeaves, ClosestLeaves, NodeRay, Traverser, WIDE_MAX_PRIMITIVES, WideBvhNode, WideChild, WideNode,
-    leaf_ranges,
-};
+use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
 use super::triangle::RayShear;
 
 /// BVH build quality presets, from obvhs.
@@ -81,11 +78,14 @@ fn node_ray(ray: &Ray) -> NodeRay {
     NodeRay::new(ray.origin, ray.dir, ray.t_min)
 }
 
-/// An 8-wide BVH over one mesh's triangles: built by obvhs (PLOC, reinsertion, then the
-/// SAH-driven collapse to 8 children of Ylitie et al. 2017), then stored uncompressed as
-/// [`WideNode`]s with the exact float boxes of the children.
+/// A CWBVH over one mesh's triangles (Ylitie et al. 2017), built by obvhs: PLOC, reinsertion,
+/// then the SAH-driven collapse to 8 children.
+///
+/// (An uncompressed copy of the nodes with exact float child boxes, Embree's BVH8 layout at
+/// 256 bytes a node, was measured 7-15 % slower on incoherent rays: the nodes no longer fit
+/// the caches as well, and the quantised test's decompression is cheap next to the misses.)
 pub struct MeshBvh {
-    nodes: Vec<WideNode>,
+    nodes: Vec<CwBvhNode>,
     traverser: Traverser,
     /// Triangles in BVH leaf order, packed leaf by leaf.
     leaves: LeafTriangles,
@@ -104,13 +104,12 @@ impl MeshBvh {
         if n == 0 {
             return Self {
                 nodes: Vec::new(),
-                traverser: Traverser::new::<WideNode>(&[]),
+                traverser: Traverser::new::<CwBvhNode>(&[]),
                 leaves: LeafTriangles::default(),
                 mesh_index: Vec::new(),
                 surface: Vec::new(),
             };
         }
-        assert!(n < WIDE_MAX_PRIMITIVES, "{n} triangles: at most {WIDE_MAX_PRIMITIVES} in one BVH");
         let verbose = std::env::var_os(BUILD_TIMES_VARIABLE).is_some();
         let mut clock = std::time::Instant::now();
         let mut stage = |name: &str| {
@@ -138,28 +137,23 @@ impl MeshBvh {
         stage("ploc");
         ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
         stage("reinsertion");
-        let cw = bvh2_to_cwbvh(&bvh2, p.max_prims_per_leaf.clamp(1, 3), true, false);
+        let cw = bvh2_to_cwbvh(&bvh2, p.max_prims_per_leaf.clamp(1, 3), false, false);
         drop(bvh2);
         stage("collapse");
         let mesh_index = cw.primitive_indices;
-        let nodes = wide_nodes(&cw.nodes, |first, count| {
-            let (first, count) = (first as usize, count as usize);
-            mesh_index[first..first + count].iter().fold(Aabb::empty(), |b, &i| b.union(&bounds[i as usize].0))
-        });
         drop(bounds);
-        stage("wide nodes");
         let surface = mesh_index.par_iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
         let leaves =
             LeafTriangles::new(n, &leaf_ranges(&cw.nodes), |slot| mesh.corners(mesh_index[slot] as usize));
         stage("leaves");
-        let traverser = Traverser::new(&nodes);
+        let traverser = Traverser::new(&cw.nodes);
         stage("traverser");
-        Self { nodes, traverser, leaves, mesh_index, surface }
+        Self { nodes: cw.nodes, traverser, leaves, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
     pub fn memory_bytes(&self) -> usize {
-        self.nodes.len() * std::mem::size_of::<WideNode>()
+        self.nodes.len() * std::mem::size_of::<CwBvhNode>()
             + self.leaves.memory_bytes()
             + self.mesh_index.len() * 8
     }
@@ -215,41 +209,6 @@ impl MeshBvh {
             AllHits { mesh: self, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray, f };
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
     }
-}
-
-/// The [`WideNode`]s of a CWBVH, same indices and slots, with float child boxes: a leaf's
-/// box is `leaf_box(first, count)`, an internal child's the union of its own children's.
-fn wide_nodes(cw: &[CwBvhNode], leaf_box: impl Fn(u32, u32) -> Aabb + Sync) -> Vec<WideNode> {
-    let mut nodes: Vec<WideNode> = cw
-        .par_iter()
-        .map(|node| {
-            let mut w = WideNode::default();
-            let (inner, occupied) = (node.inner_mask(), node.occupied_mask());
-            for slot in (0..8).filter(|s| occupied & (1 << s) != 0) {
-                if inner & (1 << slot) != 0 {
-                    // The box is filled in below, once the child's own children are known.
-                    w.set(slot, Vec3::ZERO, Vec3::ZERO, WideChild::Node(node.child(slot)));
-                } else {
-                    let (first, count) = node.leaf(slot);
-                    let b = leaf_box(first, count);
-                    w.set(slot, b.min.into(), b.max.into(), WideChild::Leaf(first, count));
-                }
-            }
-            w
-        })
-        .collect();
-    // Children are stored after their parents: a backward pass sees each child complete.
-    for i in (0..nodes.len()).rev() {
-        let mut inner = nodes[i].inner_mask();
-        while inner != 0 {
-            let slot = inner.trailing_zeros() as usize;
-            inner &= inner - 1;
-            let child = nodes[i].child(slot);
-            let (lo, hi) = nodes[child as usize].bounds();
-            nodes[i].set(slot, lo, hi, WideChild::Node(child));
-        }
-    }
-    nodes
 }
 
 /// The closest hit found so far: lane `lane` of the leaf `(first, count)`.

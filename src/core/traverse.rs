@@ -14,7 +14,6 @@
 use std::mem::{MaybeUninit, offset_of};
 
 use glam::{Vec3, Vec3A};
-
 use obvhs::cwbvh::node::CwBvhNode;
 
 /// Stack entries held on the thread's stack; deeper trees use a heap stack.
@@ -28,9 +27,6 @@ pub struct NodeRay {
     /// Byte offsets into a [`CwBvhNode`] of the near and far quantised planes, per axis.
     near: [usize; 3],
     far: [usize; 3],
-    /// Plane indices (0..6: min x, max x, min y, ...) of the near and far planes, per axis.
-    near_plane: [usize; 3],
-    far_plane: [usize; 3],
     t_min: f32,
 }
 
@@ -60,14 +56,11 @@ impl NodeRay {
         ];
         let neg = [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0];
         let pick = |k: usize, near: bool| if neg[k] == near { hi[k] } else { lo[k] };
-        let plane = |k: usize, near: bool| 2 * k + usize::from(neg[k] == near);
         Self {
             origin: origin.into(),
             inv_dir,
             near: [pick(0, true), pick(1, true), pick(2, true)],
             far: [pick(0, false), pick(1, false), pick(2, false)],
-            near_plane: [plane(0, true), plane(1, true), plane(2, true)],
-            far_plane: [plane(0, false), plane(1, false), plane(2, false)],
             t_min: t_min.max(0.0),
         }
     }
@@ -177,120 +170,6 @@ impl WideBvhNode for CwBvhNode {
     }
 }
 
-/// An uncompressed 8-wide node, as in Embree's BVH8 (Wald et al. 2014, "Embree: A Kernel
-/// Framework for Efficient CPU Ray Tracing"): the child boxes as floats in SoA order, so the
-/// 8-wide test loads each plane in one instruction with no decompression, and direct child
-/// references. 256 bytes, four cache lines.
-#[derive(Clone, Copy, Debug, PartialEq)]
-#[repr(C, align(64))]
-pub struct WideNode {
-    /// `planes[2 * k]` is the box minimum along axis `k`, `planes[2 * k + 1]` its maximum, one
-    /// lane per child slot; an empty slot has +inf minima and -inf maxima, which no ray enters.
-    planes: [[f32; 8]; 6],
-    /// Per slot: an internal child's node index, or a leaf's `first | count << 30`.
-    refs: [u32; 8],
-    /// Bit `i` set when slot `i` is an internal node.
-    imask: u32,
-}
-
-impl Default for WideNode {
-    fn default() -> Self {
-        let mut planes = [[f32::INFINITY; 8]; 6];
-        for k in 0..3 {
-            planes[2 * k + 1] = [f32::NEG_INFINITY; 8];
-        }
-        Self { planes, refs: [0; 8], imask: 0 }
-    }
-}
-
-/// Largest primitive index a [`WideNode`] leaf reference holds.
-pub const WIDE_MAX_PRIMITIVES: usize = 1 << 30;
-
-impl WideNode {
-    /// Puts a child with box `(lo, hi)` in `slot`: internal node `index`, or the leaf
-    /// `(first, count)` (`count <= 3`, `first + count <= WIDE_MAX_PRIMITIVES`).
-    pub fn set(&mut self, slot: usize, lo: Vec3, hi: Vec3, child: WideChild) {
-        for k in 0..3 {
-            self.planes[2 * k][slot] = lo[k];
-            self.planes[2 * k + 1][slot] = hi[k];
-        }
-        match child {
-            WideChild::Node(index) => {
-                self.refs[slot] = index;
-                self.imask |= 1 << slot;
-            }
-            WideChild::Leaf(first, count) => {
-                assert!(count <= 3 && (first as usize) < WIDE_MAX_PRIMITIVES, "leaf ({first}, {count})");
-                self.refs[slot] = first | count << 30;
-                self.imask &= !(1 << slot);
-            }
-        }
-    }
-}
-
-impl WideNode {
-    /// The box around all children.
-    pub fn bounds(&self) -> (Vec3, Vec3) {
-        let lo = |k: usize| self.planes[2 * k].iter().copied().fold(f32::INFINITY, f32::min);
-        let hi = |k: usize| self.planes[2 * k + 1].iter().copied().fold(f32::NEG_INFINITY, f32::max);
-        (Vec3::new(lo(0), lo(1), lo(2)), Vec3::new(hi(0), hi(1), hi(2)))
-    }
-}
-
-/// What a [`WideNode`] slot refers to.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum WideChild {
-    Node(u32),
-    Leaf(u32, u32),
-}
-
-impl WideBvhNode for WideNode {
-    #[inline(always)]
-    fn inner_mask(&self) -> u32 {
-        self.imask
-    }
-
-    #[inline(always)]
-    fn leaf(&self, slot: usize) -> (u32, u32) {
-        let r = self.refs[slot];
-        (r & (WIDE_MAX_PRIMITIVES as u32 - 1), r >> 30)
-    }
-
-    #[inline(always)]
-    fn child(&self, slot: usize) -> u32 {
-        self.refs[slot]
-    }
-
-    fn occupied_mask(&self) -> u32 {
-        (0..8).fold(0, |m, i| m | u32::from(self.planes[0][i] <= self.planes[1][i]) << i)
-    }
-
-    #[inline(always)]
-    fn hits_portable(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
-        let (o, inv) = (ray.origin.to_array(), ray.inv_dir.to_array());
-        let [n0, n1, n2] = ray.near_plane.map(|p| &self.planes[p]);
-        let [f0, f1, f2] = ray.far_plane.map(|p| &self.planes[p]);
-        let mut tnear = [0.0f32; 8];
-        let mut mask = 0;
-        for i in 0..8 {
-            // The same operations, in the same order, as the 8-wide test.
-            let t = |q: f32, k: usize| (q - o[k]) * inv[k];
-            let t0 = t(n0[i], 0).max(t(n1[i], 1)).max(t(n2[i], 2).max(ray.t_min));
-            let t1 = t(f0[i], 0).min(t(f1[i], 1)).min(t(f2[i], 2).min(t_max));
-            tnear[i] = t0;
-            mask |= u32::from(t0 <= t1) << i;
-        }
-        (mask, tnear)
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[inline(always)]
-    unsafe fn hits_avx<const AVX2: bool>(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
-        // SAFETY: the caller guarantees the CPU features.
-        unsafe { avx::wide_hits(self, ray, t_max) }
-    }
-}
-
 /// A test of a node's eight child boxes with one instruction set.
 trait NodeTest {
     fn hits<N: WideBvhNode>(node: &N, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
@@ -310,7 +189,7 @@ impl NodeTest for ScalarTest {
 mod avx {
     use std::arch::x86_64::*;
 
-    use super::{CwBvhNode, NodeRay, NodeTest, WideBvhNode, WideNode, node_frame};
+    use super::{CwBvhNode, NodeRay, NodeTest, WideBvhNode, node_frame};
 
     /// The 8-wide node test; every function here is `inline(always)` so that it ends up in
     /// the `target_feature` functions that call it, where the intrinsics inline too.
@@ -357,7 +236,11 @@ mod avx {
     /// # Safety
     /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`).
     #[inline(always)]
-    pub(super) unsafe fn cw_hits<const AVX2: bool>(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+    pub(super) unsafe fn cw_hits<const AVX2: bool>(
+        node: &CwBvhNode,
+        ray: &NodeRay,
+        t_max: f32,
+    ) -> (u32, [f32; 8]) {
         let (scale, shift) = node_frame(node, ray);
         let mut tnear = [0.0f32; 8];
         // SAFETY: the features are present per the contract; the plane offsets are the six
@@ -385,47 +268,6 @@ mod avx {
         };
         (mask, tnear)
     }
-
-    /// Distances to the eight float planes `planes` along axis `k` of `ray`.
-    ///
-    /// # Safety
-    /// The CPU must have AVX.
-    #[inline(always)]
-    unsafe fn float_slab(planes: &[f32; 8], origin: f32, inv_dir: f32) -> __m256 {
-        // SAFETY: AVX per the contract; the load reads the 8 floats of `planes`.
-        unsafe {
-            _mm256_mul_ps(
-                _mm256_sub_ps(_mm256_loadu_ps(planes.as_ptr()), _mm256_set1_ps(origin)),
-                _mm256_set1_ps(inv_dir),
-            )
-        }
-    }
-
-    /// The [`WideNode`] test: the same operations as its portable test, 8 lanes at once.
-    ///
-    /// # Safety
-    /// The CPU must have AVX.
-    #[inline(always)]
-    pub(super) unsafe fn wide_hits(node: &WideNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
-        let (o, inv) = (ray.origin, ray.inv_dir);
-        let [n0, n1, n2] = ray.near_plane.map(|p| &node.planes[p]);
-        let [f0, f1, f2] = ray.far_plane.map(|p| &node.planes[p]);
-        let mut tnear = [0.0f32; 8];
-        // SAFETY: AVX per the contract; the store writes 8 floats into `tnear`.
-        let mask = unsafe {
-            let t0 = _mm256_max_ps(
-                _mm256_max_ps(float_slab(n0, o.x, inv.x), float_slab(n1, o.y, inv.y)),
-                _mm256_max_ps(float_slab(n2, o.z, inv.z), _mm256_set1_ps(ray.t_min)),
-            );
-            let t1 = _mm256_min_ps(
-                _mm256_min_ps(float_slab(f0, o.x, inv.x), float_slab(f1, o.y, inv.y)),
-                _mm256_min_ps(float_slab(f2, o.z, inv.z), _mm256_set1_ps(t_max)),
-            );
-            _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
-            _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32
-        };
-        (mask, tnear)
-    }
 }
 
 /// A hint to load the cache line holding `x`.
@@ -439,6 +281,27 @@ pub fn prefetch<T>(x: &T) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = x;
+}
+
+/// A hint to load every cache line of `nodes[index]` (nothing if out of range).
+#[inline(always)]
+fn prefetch_node<N>(nodes: &[N], index: u32) {
+    if let Some(node) = nodes.get(index as usize) {
+        let p = (node as *const N).cast::<u8>();
+        let mut offset = 0;
+        while offset < size_of::<N>() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: a prefetch has no effect but on the cache (it never faults), and SSE is
+            // part of x86-64.
+            unsafe {
+                use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(offset).cast());
+            }
+            offset += 64;
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
+    }
 }
 
 /// A traversal stack of (node, entry distance) pairs.
@@ -589,7 +452,11 @@ impl Traverser {
     #[inline]
     pub fn closest<N: WideBvhNode>(
         &self,
-        nodes: &[N], ray: &NodeRay, t_max: f32, leaves: &mut impl ClosestLeaves) {
+        nodes: &[N],
+        ray: &NodeRay,
+        t_max: f32,
+        leaves: &mut impl ClosestLeaves,
+    ) {
         if nodes.is_empty() {
             return;
         }
@@ -607,7 +474,13 @@ impl Traverser {
     /// Any-hit traversal: `leaves` tests every leaf whose box the ray crosses on
     /// `(t_min, t_max]` until it returns true. Returns whether it did.
     #[inline]
-    pub fn any<N: WideBvhNode>(&self, nodes: &[N], ray: &NodeRay, t_max: f32, leaves: &mut impl AnyLeaves) -> bool {
+    pub fn any<N: WideBvhNode>(
+        &self,
+        nodes: &[N],
+        ray: &NodeRay,
+        t_max: f32,
+        leaves: &mut impl AnyLeaves,
+    ) -> bool {
         if nodes.is_empty() {
             return false;
         }
@@ -671,6 +544,24 @@ fn any_avx2<N: WideBvhNode>(
     any_loop::<avx::AvxTest<true>, N>(nodes, ray, t_max, leaves, stack)
 }
 
+/// Prefetches the leaves and the internal children among the `hits` of `node`, so that their
+/// loads overlap the leaf tests.
+#[inline(always)]
+fn prefetch_ahead<N: WideBvhNode>(nodes: &[N], node: &N, hits: u32, leaf: impl Fn(u32, u32)) {
+    let imask = node.inner_mask();
+    let mut ahead = hits;
+    while ahead != 0 {
+        let slot = ahead.trailing_zeros() as usize;
+        ahead &= ahead - 1;
+        if imask & (1 << slot) != 0 {
+            prefetch_node(nodes, node.child(slot));
+        } else {
+            let (first, count) = node.leaf(slot);
+            leaf(first, count);
+        }
+    }
+}
+
 #[inline(always)]
 fn closest_loop<T: NodeTest, N: WideBvhNode>(
     nodes: &[N],
@@ -685,17 +576,20 @@ fn closest_loop<T: NodeTest, N: WideBvhNode>(
         let (hits, tnear) = T::hits(node, ray, t_max);
         let imask = node.inner_mask();
         let mut leaves = hits & !imask;
-        let mut ahead = leaves;
-        while ahead != 0 {
-            let slot = ahead.trailing_zeros() as usize;
-            ahead &= ahead - 1;
-            let (first, count) = node.leaf(slot);
-            visitor.prefetch(first, count);
-        }
+        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
         let entry_t_max = t_max;
         while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
+            // Nearest leaf first, so that a hit culls the farther ones.
+            let mut slot = leaves.trailing_zeros() as usize;
+            let mut rest = leaves & (leaves - 1);
+            while rest != 0 {
+                let s = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if tnear[s] < tnear[slot] {
+                    slot = s;
+                }
+            }
+            leaves &= !(1 << slot);
             // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
             if tnear[slot] <= t_max {
                 let (first, count) = node.leaf(slot);
@@ -770,13 +664,7 @@ fn any_loop<T: NodeTest, N: WideBvhNode>(
         let (hits, _) = T::hits(node, ray, t_max);
         let imask = node.inner_mask();
         let mut leaves = hits & !imask;
-        let mut ahead = leaves;
-        while ahead != 0 {
-            let slot = ahead.trailing_zeros() as usize;
-            ahead &= ahead - 1;
-            let (first, count) = node.leaf(slot);
-            visitor.prefetch(first, count);
-        }
+        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
