@@ -13,11 +13,12 @@ use obvhs::aabb::Aabb;
 use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
-use obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh;
 use obvhs::cwbvh::node::CwBvhNode;
 use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
+
+mod collapse;
 
 use super::hit::{Hit, PrimitiveKind};
 use super::leaf::{LeafRay, LeafTriangles};
@@ -137,18 +138,17 @@ impl MeshBvh {
         stage("ploc");
         ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
         stage("reinsertion");
-        let cw = bvh2_to_cwbvh(&bvh2, p.max_prims_per_leaf.clamp(1, 3), false, false);
+        let (nodes, mesh_index) = collapse::collapse(&bvh2, p.max_prims_per_leaf);
         drop(bvh2);
         stage("collapse");
-        let mesh_index = cw.primitive_indices;
         drop(bounds);
         let surface = mesh_index.par_iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect();
         let leaves =
-            LeafTriangles::new(n, &leaf_ranges(&cw.nodes), |slot| mesh.corners(mesh_index[slot] as usize));
+            LeafTriangles::new(n, &leaf_ranges(&nodes), |slot| mesh.corners(mesh_index[slot] as usize));
         stage("leaves");
-        let traverser = Traverser::new(&cw.nodes);
+        let traverser = Traverser::new(&nodes);
         stage("traverser");
-        Self { nodes: cw.nodes, traverser, leaves, mesh_index, surface }
+        Self { nodes, traverser, leaves, mesh_index, surface }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -512,6 +512,41 @@ mod tests {
         for variant in &variants[1..] {
             simd.traverser = *variant;
             compare(&reference, &simd);
+        }
+    }
+
+    #[test]
+    fn parallel_collapse_matches_obvhs() {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("a");
+        let mut r = stream(5, 0, 0);
+        for _ in 0..20_000 {
+            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0;
+            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r));
+            let tri = [corner(), corner(), corner()];
+            mesh.push_triangle(tri, s);
+        }
+        let bounds: Vec<Bounds> = (0..mesh.triangle_count())
+            .map(|i| {
+                let [a, b, c] = mesh.corners(i);
+                padded_bounds(a.min(b).min(c), a.max(b).max(c))
+            })
+            .collect();
+        for quality in BuildQuality::ALL {
+            let p = quality.params();
+            let n = bounds.len() as u32;
+            let mut bvh2 = PlocBuilder::with_capacity(bounds.len()).build(
+                p.ploc_search_distance,
+                &bounds,
+                (0..n).collect(),
+                p.sort_precision,
+                p.search_depth_threshold,
+            );
+            ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
+            let reference = obvhs::cwbvh::bvh2_to_cwbvh::bvh2_to_cwbvh(&bvh2, 3, false, false);
+            let (nodes, prims) = collapse::collapse(&bvh2, 3);
+            assert!(nodes == reference.nodes, "{quality:?}: nodes differ");
+            assert_eq!(prims, reference.primitive_indices, "{quality:?}");
         }
     }
 
