@@ -1,6 +1,9 @@
 //! Ray traversal of an obvhs compressed wide BVH (CWBVH, Ylitie et al. 2017): our own stack
-//! loop over obvhs' node data, specialised for closest hit (children visited nearest first,
-//! stack entries culled by distance) and for any hit (occlusion, all hits).
+//! loop over obvhs' node data, specialised for closest hit (children and leaves visited
+//! nearest first, stack entries culled by distance) and for any hit (occlusion, all hits).
+//! The children and leaves a node test hits are prefetched before its leaves are tested, so
+//! their cache misses overlap the triangle tests (incoherent rays are bound by those misses).
+//! The loops are generic over [`WideBvhNode`], so another 8-wide node format can plug in.
 //!
 //! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
 //! widening of the quantised planes where present) in one 8-wide pass, otherwise by a scalar
