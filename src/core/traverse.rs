@@ -1,6 +1,9 @@
 //! Ray traversal of an obvhs compressed wide BVH (CWBVH, Ylitie et al. 2017): our own stack
-//! loop over obvhs' node data, specialised for closest hit (children visited nearest first,
-//! stack entries culled by distance) and for any hit (occlusion, all hits).
+//! loop over obvhs' node data, specialised for closest hit (children and leaves visited
+//! nearest first, stack entries culled by distance) and for any hit (occlusion, all hits).
+//! The children and leaves a node test hits are prefetched before its leaves are tested, so
+//! their cache misses overlap the triangle tests (incoherent rays are bound by those misses).
+//! The loops are generic over [`WideBvhNode`], so another 8-wide node format can plug in.
 //!
 //! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
 //! widening of the quantised planes where present) in one 8-wide pass, otherwise by a scalar
@@ -116,10 +119,63 @@ fn node_hits_scalar(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 
     (mask & occupied(node), tnear)
 }
 
-/// A test of a node's eight child boxes: the mask of slots hit on `(t_min, t_max]` and each
-/// slot's entry distance.
+/// A node of an 8-wide BVH that the traversal loops below run over.
+pub trait WideBvhNode: Sized {
+    /// Bit `i` set when child slot `i` is an internal node.
+    fn inner_mask(&self) -> u32;
+    /// Primitive range `(first, count)` of leaf child `slot`.
+    fn leaf(&self, slot: usize) -> (u32, u32);
+    /// Node index of internal child `slot`.
+    fn child(&self, slot: usize) -> u32;
+    /// Bit `i` set when slot `i` holds a child.
+    fn occupied_mask(&self) -> u32;
+    /// The portable test of the eight child boxes: the mask of slots hit on `(t_min, t_max]`
+    /// and each slot's entry distance.
+    fn hits_portable(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
+    /// The same test, 8-wide.
+    ///
+    /// # Safety
+    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`).
+    #[cfg(target_arch = "x86_64")]
+    unsafe fn hits_avx<const AVX2: bool>(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
+}
+
+impl WideBvhNode for CwBvhNode {
+    #[inline(always)]
+    fn inner_mask(&self) -> u32 {
+        u32::from(self.imask)
+    }
+
+    #[inline(always)]
+    fn leaf(&self, slot: usize) -> (u32, u32) {
+        leaf_range(self, slot)
+    }
+
+    #[inline(always)]
+    fn child(&self, slot: usize) -> u32 {
+        child_index(self, slot)
+    }
+
+    fn occupied_mask(&self) -> u32 {
+        occupied(self)
+    }
+
+    #[inline(always)]
+    fn hits_portable(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+        node_hits_scalar(self, ray, t_max)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn hits_avx<const AVX2: bool>(&self, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+        // SAFETY: the caller guarantees the CPU features.
+        unsafe { avx::cw_hits::<AVX2>(self, ray, t_max) }
+    }
+}
+
+/// A test of a node's eight child boxes with one instruction set.
 trait NodeTest {
-    fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
+    fn hits<N: WideBvhNode>(node: &N, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]);
 }
 
 /// The portable node test.
@@ -127,8 +183,8 @@ struct ScalarTest;
 
 impl NodeTest for ScalarTest {
     #[inline(always)]
-    fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
-        node_hits_scalar(node, ray, t_max)
+    fn hits<N: WideBvhNode>(node: &N, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+        node.hits_portable(ray, t_max)
     }
 }
 
@@ -136,12 +192,22 @@ impl NodeTest for ScalarTest {
 mod avx {
     use std::arch::x86_64::*;
 
-    use super::{CwBvhNode, NodeRay, NodeTest, node_frame};
+    use super::{CwBvhNode, NodeRay, NodeTest, WideBvhNode, node_frame};
 
     /// The 8-wide node test; every function here is `inline(always)` so that it ends up in
     /// the `target_feature` functions that call it, where the intrinsics inline too.
-    /// With `AVX2`, the eight plane bytes widen in one instruction.
+    /// With `AVX2`, the eight plane bytes of a CWBVH node widen in one instruction.
     pub(super) struct AvxTest<const AVX2: bool>;
+
+    impl<const AVX2: bool> NodeTest for AvxTest<AVX2> {
+        #[inline(always)]
+        fn hits<N: WideBvhNode>(node: &N, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
+            // SAFETY: `AvxTest` is only used inside functions compiled with AVX, FMA and
+            // SSE4.1 (and AVX2 for `AvxTest<true>`), entered after `is_x86_feature_detected!`
+            // confirmed them.
+            unsafe { node.hits_avx::<AVX2>(ray, t_max) }
+        }
+    }
 
     /// Distances to the eight quantised planes at byte `offset` of `node` along an axis with
     /// slab slope `scale` and offset `shift`.
@@ -168,40 +234,42 @@ mod avx {
         }
     }
 
-    impl<const AVX2: bool> NodeTest for AvxTest<AVX2> {
-        #[inline(always)]
-        fn hits(node: &CwBvhNode, ray: &NodeRay, t_max: f32) -> (u32, [f32; 8]) {
-            let (scale, shift) = node_frame(node, ray);
-            let mut tnear = [0.0f32; 8];
-            // SAFETY: `AvxTest` is only used inside functions compiled with AVX, FMA and
-            // SSE4.1, entered after `is_x86_feature_detected!` confirmed them; the plane
-            // offsets are the six of `NodeRay`; the store writes 8 floats into `tnear`.
-            let mask = unsafe {
-                let t0 = _mm256_max_ps(
-                    _mm256_max_ps(
-                        slab::<AVX2>(node, ray.near[0], scale.x, shift.x),
-                        slab::<AVX2>(node, ray.near[1], scale.y, shift.y),
-                    ),
-                    _mm256_max_ps(
-                        slab::<AVX2>(node, ray.near[2], scale.z, shift.z),
-                        _mm256_set1_ps(ray.t_min),
-                    ),
-                );
-                let t1 = _mm256_min_ps(
-                    _mm256_min_ps(
-                        slab::<AVX2>(node, ray.far[0], scale.x, shift.x),
-                        slab::<AVX2>(node, ray.far[1], scale.y, shift.y),
-                    ),
-                    _mm256_min_ps(slab::<AVX2>(node, ray.far[2], scale.z, shift.z), _mm256_set1_ps(t_max)),
-                );
-                _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
-                let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
-                let meta = _mm_loadl_epi64(node.child_meta.as_ptr().cast());
-                let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(meta, _mm_setzero_si128())) as u32;
-                hit & !empty & 0xff
-            };
-            (mask, tnear)
-        }
+    /// The CWBVH node test.
+    ///
+    /// # Safety
+    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`).
+    #[inline(always)]
+    pub(super) unsafe fn cw_hits<const AVX2: bool>(
+        node: &CwBvhNode,
+        ray: &NodeRay,
+        t_max: f32,
+    ) -> (u32, [f32; 8]) {
+        let (scale, shift) = node_frame(node, ray);
+        let mut tnear = [0.0f32; 8];
+        // SAFETY: the features are present per the contract; the plane offsets are the six
+        // of `NodeRay`; the store writes 8 floats into `tnear`.
+        let mask = unsafe {
+            let t0 = _mm256_max_ps(
+                _mm256_max_ps(
+                    slab::<AVX2>(node, ray.near[0], scale.x, shift.x),
+                    slab::<AVX2>(node, ray.near[1], scale.y, shift.y),
+                ),
+                _mm256_max_ps(slab::<AVX2>(node, ray.near[2], scale.z, shift.z), _mm256_set1_ps(ray.t_min)),
+            );
+            let t1 = _mm256_min_ps(
+                _mm256_min_ps(
+                    slab::<AVX2>(node, ray.far[0], scale.x, shift.x),
+                    slab::<AVX2>(node, ray.far[1], scale.y, shift.y),
+                ),
+                _mm256_min_ps(slab::<AVX2>(node, ray.far[2], scale.z, shift.z), _mm256_set1_ps(t_max)),
+            );
+            _mm256_storeu_ps(tnear.as_mut_ptr(), t0);
+            let hit = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1)) as u32;
+            let meta = _mm_loadl_epi64(node.child_meta.as_ptr().cast());
+            let empty = _mm_movemask_epi8(_mm_cmpeq_epi8(meta, _mm_setzero_si128())) as u32;
+            hit & !empty & 0xff
+        };
+        (mask, tnear)
     }
 }
 
@@ -216,6 +284,27 @@ pub fn prefetch<T>(x: &T) {
     }
     #[cfg(not(target_arch = "x86_64"))]
     let _ = x;
+}
+
+/// A hint to load every cache line of `nodes[index]` (nothing if out of range).
+#[inline(always)]
+fn prefetch_node<N>(nodes: &[N], index: u32) {
+    if let Some(node) = nodes.get(index as usize) {
+        let p = (node as *const N).cast::<u8>();
+        let mut offset = 0;
+        while offset < size_of::<N>() {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: a prefetch has no effect but on the cache (it never faults), and SSE is
+            // part of x86-64.
+            unsafe {
+                use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+                _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(offset).cast());
+            }
+            offset += 64;
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = p;
+    }
 }
 
 /// A traversal stack of (node, entry distance) pairs.
@@ -331,14 +420,14 @@ fn child_index(node: &CwBvhNode, slot: usize) -> u32 {
 
 impl Traverser {
     /// The traversal of `nodes`, with the best node test this CPU has.
-    pub fn new(nodes: &[CwBvhNode]) -> Self {
+    pub fn new<N: WideBvhNode>(nodes: &[N]) -> Self {
         Self { isa: Isa::chosen(), stack_len: 7 * (depth(nodes) + 1) }
     }
 
     /// Every traversal this CPU can run, the portable one first: for tests of one against
     /// the others.
     #[cfg(test)]
-    pub(crate) fn all_available(nodes: &[CwBvhNode]) -> Vec<Self> {
+    pub(crate) fn all_available<N: WideBvhNode>(nodes: &[N]) -> Vec<Self> {
         let stack_len = Self::new(nodes).stack_len;
         let best = Isa::best();
         let mut all = vec![Self { isa: Isa::Scalar, stack_len }];
@@ -364,12 +453,18 @@ impl Traverser {
     /// Closest-hit traversal of `nodes` for `ray` up to `t_max`: `leaves` tests each
     /// leaf whose box the ray enters before the current closest distance, nearest boxes first.
     #[inline]
-    pub fn closest(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl ClosestLeaves) {
+    pub fn closest<N: WideBvhNode>(
+        &self,
+        nodes: &[N],
+        ray: &NodeRay,
+        t_max: f32,
+        leaves: &mut impl ClosestLeaves,
+    ) {
         if nodes.is_empty() {
             return;
         }
         match self.isa {
-            Isa::Scalar => self.with_stack(|s| closest_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
+            Isa::Scalar => self.with_stack(|s| closest_loop::<ScalarTest, N>(nodes, ray, t_max, leaves, s)),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaves, s) }),
@@ -382,12 +477,18 @@ impl Traverser {
     /// Any-hit traversal: `leaves` tests every leaf whose box the ray crosses on
     /// `(t_min, t_max]` until it returns true. Returns whether it did.
     #[inline]
-    pub fn any(&self, nodes: &[CwBvhNode], ray: &NodeRay, t_max: f32, leaves: &mut impl AnyLeaves) -> bool {
+    pub fn any<N: WideBvhNode>(
+        &self,
+        nodes: &[N],
+        ray: &NodeRay,
+        t_max: f32,
+        leaves: &mut impl AnyLeaves,
+    ) -> bool {
         if nodes.is_empty() {
             return false;
         }
         match self.isa {
-            Isa::Scalar => self.with_stack(|s| any_loop::<ScalarTest>(nodes, ray, t_max, leaves, s)),
+            Isa::Scalar => self.with_stack(|s| any_loop::<ScalarTest, N>(nodes, ray, t_max, leaves, s)),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaves, s) }),
@@ -400,55 +501,73 @@ impl Traverser {
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn closest_avx(
-    nodes: &[CwBvhNode],
+fn closest_avx<N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     t_max: f32,
     leaves: &mut impl ClosestLeaves,
     stack: Stack<'_>,
 ) {
-    closest_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack);
+    closest_loop::<avx::AvxTest<false>, N>(nodes, ray, t_max, leaves, stack);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn any_avx(
-    nodes: &[CwBvhNode],
+fn any_avx<N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     t_max: f32,
     leaves: &mut impl AnyLeaves,
     stack: Stack<'_>,
 ) -> bool {
-    any_loop::<avx::AvxTest<false>>(nodes, ray, t_max, leaves, stack)
+    any_loop::<avx::AvxTest<false>, N>(nodes, ray, t_max, leaves, stack)
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,popcnt")]
-fn closest_avx2(
-    nodes: &[CwBvhNode],
+fn closest_avx2<N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     t_max: f32,
     leaves: &mut impl ClosestLeaves,
     stack: Stack<'_>,
 ) {
-    closest_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack);
+    closest_loop::<avx::AvxTest<true>, N>(nodes, ray, t_max, leaves, stack);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma,bmi1,popcnt")]
-fn any_avx2(
-    nodes: &[CwBvhNode],
+fn any_avx2<N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     t_max: f32,
     leaves: &mut impl AnyLeaves,
     stack: Stack<'_>,
 ) -> bool {
-    any_loop::<avx::AvxTest<true>>(nodes, ray, t_max, leaves, stack)
+    any_loop::<avx::AvxTest<true>, N>(nodes, ray, t_max, leaves, stack)
+}
+
+/// Prefetches the leaves and the internal children among the `hits` of `node`, so that their
+/// loads overlap the leaf tests.
+#[inline(always)]
+fn prefetch_ahead<N: WideBvhNode>(nodes: &[N], node: &N, hits: u32, leaf: impl Fn(u32, u32)) {
+    let imask = node.inner_mask();
+    let mut ahead = hits;
+    while ahead != 0 {
+        let slot = ahead.trailing_zeros() as usize;
+        ahead &= ahead - 1;
+        if imask & (1 << slot) != 0 {
+            prefetch_node(nodes, node.child(slot));
+        } else {
+            let (first, count) = node.leaf(slot);
+            leaf(first, count);
+        }
+    }
 }
 
 #[inline(always)]
-fn closest_loop<T: NodeTest>(
-    nodes: &[CwBvhNode],
+fn closest_loop<T: NodeTest, N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     mut t_max: f32,
     visitor: &mut impl ClosestLeaves,
@@ -458,22 +577,25 @@ fn closest_loop<T: NodeTest>(
     loop {
         let node = &nodes[current as usize];
         let (hits, tnear) = T::hits(node, ray, t_max);
-        let imask = u32::from(node.imask);
+        let imask = node.inner_mask();
         let mut leaves = hits & !imask;
-        let mut ahead = leaves;
-        while ahead != 0 {
-            let slot = ahead.trailing_zeros() as usize;
-            ahead &= ahead - 1;
-            let (first, count) = leaf_range(node, slot);
-            visitor.prefetch(first, count);
-        }
+        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
         let entry_t_max = t_max;
         while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
+            // Nearest leaf first, so that a hit culls the farther ones.
+            let mut slot = leaves.trailing_zeros() as usize;
+            let mut rest = leaves & (leaves - 1);
+            while rest != 0 {
+                let s = rest.trailing_zeros() as usize;
+                rest &= rest - 1;
+                if tnear[s] < tnear[slot] {
+                    slot = s;
+                }
+            }
+            leaves &= !(1 << slot);
             // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
             if tnear[slot] <= t_max {
-                let (first, count) = leaf_range(node, slot);
+                let (first, count) = node.leaf(slot);
                 visitor.test(first, count, &mut t_max);
             }
         }
@@ -492,7 +614,7 @@ fn closest_loop<T: NodeTest>(
         match inner.count_ones() {
             0 => {}
             1 => {
-                current = child_index(node, inner.trailing_zeros() as usize);
+                current = node.child(inner.trailing_zeros() as usize);
                 continue;
             }
             n => {
@@ -503,7 +625,7 @@ fn closest_loop<T: NodeTest>(
                 for k in 0..n {
                     let slot = inner.trailing_zeros() as usize;
                     inner &= inner - 1;
-                    let item = (child_index(node, slot), tnear[slot]);
+                    let item = (node.child(slot), tnear[slot]);
                     let mut j = k;
                     while j > 0 && order[j - 1].1 < item.1 {
                         order[j] = order[j - 1];
@@ -532,8 +654,8 @@ fn closest_loop<T: NodeTest>(
 }
 
 #[inline(always)]
-fn any_loop<T: NodeTest>(
-    nodes: &[CwBvhNode],
+fn any_loop<T: NodeTest, N: WideBvhNode>(
+    nodes: &[N],
     ray: &NodeRay,
     t_max: f32,
     visitor: &mut impl AnyLeaves,
@@ -543,19 +665,13 @@ fn any_loop<T: NodeTest>(
     loop {
         let node = &nodes[current as usize];
         let (hits, _) = T::hits(node, ray, t_max);
-        let imask = u32::from(node.imask);
+        let imask = node.inner_mask();
         let mut leaves = hits & !imask;
-        let mut ahead = leaves;
-        while ahead != 0 {
-            let slot = ahead.trailing_zeros() as usize;
-            ahead &= ahead - 1;
-            let (first, count) = leaf_range(node, slot);
-            visitor.prefetch(first, count);
-        }
+        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
         while leaves != 0 {
             let slot = leaves.trailing_zeros() as usize;
             leaves &= leaves - 1;
-            let (first, count) = leaf_range(node, slot);
+            let (first, count) = node.leaf(slot);
             if visitor.test(first, count) {
                 return true;
             }
@@ -568,42 +684,47 @@ fn any_loop<T: NodeTest>(
             }
             continue;
         }
-        current = child_index(node, inner.trailing_zeros() as usize);
+        current = node.child(inner.trailing_zeros() as usize);
         inner &= inner - 1;
         while inner != 0 {
             let slot = inner.trailing_zeros() as usize;
             inner &= inner - 1;
-            stack.push(child_index(node, slot), 0.0);
+            stack.push(node.child(slot), 0.0);
         }
     }
 }
 
 /// The `(first, count)` primitive ranges of all leaves, in primitive order.
-pub fn leaf_ranges(nodes: &[CwBvhNode]) -> Vec<(u32, u32)> {
+pub fn leaf_ranges<N: WideBvhNode + Sync>(nodes: &[N]) -> Vec<(u32, u32)> {
+    use rayon::prelude::*;
     let mut leaves: Vec<(u32, u32)> = nodes
-        .iter()
-        .flat_map(|n| {
-            (0..8)
-                .filter(|&slot| n.child_meta[slot] != 0 && n.imask & (1 << slot) == 0)
-                .map(|slot| leaf_range(n, slot))
+        .par_iter()
+        .flat_map_iter(|n| {
+            let (inner, hit) = (n.inner_mask(), n.occupied_mask());
+            (0..8).filter(move |&slot| hit & !inner & (1 << slot) != 0).map(|slot| n.leaf(slot))
         })
         .collect();
-    leaves.sort_unstable();
+    leaves.par_sort_unstable();
     leaves
 }
 
 /// Levels of the tree below the root (0 for a root whose children are all leaves).
-fn depth(nodes: &[CwBvhNode]) -> usize {
+fn depth<N: WideBvhNode>(nodes: &[N]) -> usize {
     if nodes.is_empty() {
         return 0;
     }
     // Children are stored after their parent, so one backward pass sees children first.
-    let mut below = vec![0usize; nodes.len()];
+    let mut below = vec![0u32; nodes.len()];
     for i in (0..nodes.len()).rev() {
         let n = &nodes[i];
-        let count = n.imask.count_ones() as usize;
-        let base = n.child_base_idx as usize;
-        below[i] = (base..base + count).filter_map(|c| below.get(c)).map(|d| d + 1).max().unwrap_or(0);
+        let mut inner = n.inner_mask();
+        let mut d = 0;
+        while inner != 0 {
+            let slot = inner.trailing_zeros() as usize;
+            inner &= inner - 1;
+            d = d.max(below.get(n.child(slot) as usize).map_or(0, |b| b + 1));
+        }
+        below[i] = d;
     }
-    below[0]
+    below[0] as usize
 }
