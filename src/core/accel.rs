@@ -203,6 +203,53 @@ impl MeshBvh {
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
+    /// Closest hits of many rays traced as one stream ([`Traverser::closest_stream`]):
+    /// `out(i, lane)` gets ray `i`'s closest leaf lane.
+    fn closest_lanes_stream(&self, rays: &[Ray], mut out: impl FnMut(usize, Option<ClosestLane>)) {
+        self.traverser.closest_stream(
+            &self.nodes,
+            rays.len(),
+            |i| {
+                let ray = &rays[i];
+                let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
+                (
+                    node_ray(ray),
+                    ray.t_max,
+                    ClosestTriangle { leaves: &self.leaves, shear, t_min: ray.t_min, best: None },
+                )
+            },
+            |i, visitor| out(i, visitor.best),
+        );
+    }
+
+    /// [`MeshBvh::closest_triangle`] of every ray, traced as one stream, into `out`.
+    pub fn closest_triangles_into(&self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
+        self.closest_lanes_stream(rays, |i, best| {
+            out[i] = best.map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t));
+        });
+    }
+
+    /// [`MeshBvh::closest_hit`] of every ray, traced as one stream, into `out`.
+    pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        self.closest_lanes_stream(rays, |i, best| {
+            out[i] = best.map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, &rays[i]));
+        });
+    }
+
+    /// [`MeshBvh::occluded`] of every ray, traced as one stream, into `out`.
+    pub fn occluded_into(&self, rays: &[Ray], out: &mut [bool]) {
+        self.traverser.any_stream(
+            &self.nodes,
+            rays.len(),
+            |i| {
+                let ray = &rays[i];
+                let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
+                (node_ray(ray), ray.t_max, Occlusion { leaves: &self.leaves, shear, ray })
+            },
+            |i, hit| out[i] = hit,
+        );
+    }
+
     /// Calls `f` for every triangle hit on the ray, in no particular order.
     pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
         let mut visitor =
@@ -424,31 +471,44 @@ impl Accel {
     /// Closest hits of many rays in parallel; the result is in input order whatever the
     /// thread count.
     pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        map_in_order(rays, |r| self.closest_hit(r))
+        let mut out = chunked(rays, |r, o| self.mesh.closest_hits_into(r, o));
+        if !self.spheres.is_empty() {
+            out.par_iter_mut().zip(rays).for_each(|(hit, ray)| {
+                let mut r = *ray;
+                if let Some(h) = &*hit {
+                    r.t_max = h.t;
+                }
+                if let Some(s) = self.spheres.closest_hit(&r) {
+                    *hit = Some(s);
+                }
+            });
+        }
+        out
     }
 
     /// Closest triangle (mesh index, distance) of many rays in parallel, in input order: the
     /// lean query for benchmarks and launchers that look up the rest themselves.
     pub fn closest_triangles(&self, rays: &[Ray]) -> Vec<Option<(u32, f32)>> {
-        map_in_order(rays, |r| self.mesh.closest_triangle(r))
+        chunked(rays, |r, o| self.mesh.closest_triangles_into(r, o))
     }
 
     /// Occlusion of many segments in parallel, in input order.
     pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
-        map_in_order(rays, |r| self.occluded(r))
+        let mut out = chunked(rays, |r, o| self.mesh.occluded_into(r, o));
+        if !self.spheres.is_empty() {
+            out.par_iter_mut().zip(rays).for_each(|(o, r)| *o = *o || self.spheres.occluded(r));
+        }
+        out
     }
 }
 
-/// `f` of every ray, computed in parallel in fixed chunks and returned in input order.
-/// (Sorting rays into a coherent order first, by direction octant and a Morton curve over the
-/// origins, was measured slower on the 1M-triangle benchmark: the sort cost more than it saved.)
-fn map_in_order<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&Ray) -> T + Sync) -> Vec<T> {
+/// Results of `f(chunk, out)` over fixed chunks of the rays, in parallel, in input order:
+/// each chunk is traced as one stream. (Sorting rays into a coherent order first, by
+/// direction octant and a Morton curve over the origins, was measured slower on the
+/// 1M-triangle benchmark: the sort cost more than it saved.)
+fn chunked<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&[Ray], &mut [T]) + Sync) -> Vec<T> {
     let mut out = vec![T::default(); rays.len()];
-    out.par_chunks_mut(BATCH_CHUNK).zip(rays.par_chunks(BATCH_CHUNK)).for_each(|(o, r)| {
-        for (o, r) in o.iter_mut().zip(r) {
-            *o = f(r);
-        }
-    });
+    out.par_chunks_mut(BATCH_CHUNK).zip(rays.par_chunks(BATCH_CHUNK)).for_each(|(o, r)| f(r, o));
     out
 }
 
@@ -551,6 +611,28 @@ mod tests {
     }
 
     fn compare(portable: &MeshBvh, simd: &MeshBvh) {
+        // Streams give every ray the answer of its single-ray query, for every traversal.
+        let rays: Vec<Ray> = (0..5_000u64)
+            .map(|k| {
+                let mut r = stream(4, 2, k);
+                let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;
+                let d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+                Ray::segment(o, d, 5.0 + 40.0 * uniform(&mut r))
+            })
+            .collect();
+        for bvh in [portable, simd] {
+            let mut triangles = vec![None; rays.len()];
+            let mut hits = vec![None; rays.len()];
+            let mut blocked = vec![false; rays.len()];
+            bvh.closest_triangles_into(&rays, &mut triangles);
+            bvh.closest_hits_into(&rays, &mut hits);
+            bvh.occluded_into(&rays, &mut blocked);
+            for (i, ray) in rays.iter().enumerate() {
+                assert_eq!(triangles[i], portable.closest_triangle(ray), "stream ray {i}");
+                assert_eq!(hits[i], portable.closest_hit(ray), "stream ray {i}");
+                assert_eq!(blocked[i], portable.occluded(ray), "stream ray {i}");
+            }
+        }
         for k in 0..20_000u64 {
             let mut r = stream(4, 1, k);
             let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;

@@ -385,7 +385,7 @@ impl Isa {
 #[derive(Clone, Copy, Debug)]
 pub struct Traverser {
     isa: Isa,
-    /// Stack entries a traversal may need: up to 7 pushed per internal level.
+    /// Stack entries a traversal may need: up to 8 pushed per internal level.
     stack_len: usize,
 }
 
@@ -421,7 +421,7 @@ fn child_index(node: &CwBvhNode, slot: usize) -> u32 {
 impl Traverser {
     /// The traversal of `nodes`, with the best node test this CPU has.
     pub fn new<N: WideBvhNode>(nodes: &[N]) -> Self {
-        Self { isa: Isa::chosen(), stack_len: 7 * (depth(nodes) + 1) }
+        Self { isa: Isa::chosen(), stack_len: 8 * (depth(nodes) + 1) }
     }
 
     /// Every traversal this CPU can run, the portable one first: for tests of one against
@@ -499,6 +499,98 @@ impl Traverser {
     }
 }
 
+impl Traverser {
+    /// Runs `f` with [`STREAM_WIDTH`] stacks large enough for this tree.
+    #[inline(always)]
+    fn with_stacks<R>(&self, f: impl FnOnce(&mut [Stack<'_>; STREAM_WIDTH]) -> R) -> R {
+        let mut items = vec![MaybeUninit::uninit(); STREAM_WIDTH * self.stack_len];
+        let mut parts = items.chunks_mut(self.stack_len);
+        let mut stacks: [Stack<'_>; STREAM_WIDTH] =
+            std::array::from_fn(|_| Stack { items: parts.next().unwrap_or_default(), len: 0 });
+        f(&mut stacks)
+    }
+
+    /// Closest-hit traversal of rays `0..count` as a stream ([`closest_stream_loop`]):
+    /// `start(i)` gives ray `i`'s node constants, distance limit and leaf test, and
+    /// `finish(i, leaves)` receives the leaf test back when ray `i` is done.
+    pub fn closest_stream<N: WideBvhNode, V: ClosestLeaves>(
+        &self,
+        nodes: &[N],
+        count: usize,
+        mut start: impl FnMut(usize) -> (NodeRay, f32, V),
+        mut finish: impl FnMut(usize, V),
+    ) {
+        if nodes.is_empty() {
+            (0..count).for_each(|i| finish(i, start(i).2));
+            return;
+        }
+        self.with_stacks(|stacks| match self.isa {
+            Isa::Scalar => closest_stream_loop::<ScalarTest, N, V>(nodes, count, start, finish, stacks),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => unsafe { closest_stream_avx(nodes, count, start, finish, stacks) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => unsafe { closest_stream_avx2(nodes, count, start, finish, stacks) },
+        })
+    }
+
+    /// Any-hit traversal of rays `0..count` as a stream; `finish(i, hit)` gets each answer.
+    pub fn any_stream<N: WideBvhNode, V: AnyLeaves>(
+        &self,
+        nodes: &[N],
+        count: usize,
+        start: impl FnMut(usize) -> (NodeRay, f32, V),
+        mut finish: impl FnMut(usize, bool),
+    ) {
+        if nodes.is_empty() {
+            (0..count).for_each(|i| finish(i, false));
+            return;
+        }
+        self.with_stacks(|stacks| match self.isa {
+            Isa::Scalar => any_stream_loop::<ScalarTest, N, V>(nodes, count, start, finish, stacks),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => unsafe { any_stream_avx(nodes, count, start, finish, stacks) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
+            Isa::Avx2 => unsafe { any_stream_avx2(nodes, count, start, finish, stacks) },
+        })
+    }
+}
+
+/// The stream traversals compiled for one instruction set.
+macro_rules! stream_entry_points {
+    ($features:literal, $test:ty, $closest:ident, $any:ident) => {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $closest<N: WideBvhNode, V: ClosestLeaves>(
+            nodes: &[N],
+            count: usize,
+            start: impl FnMut(usize) -> (NodeRay, f32, V),
+            finish: impl FnMut(usize, V),
+            stacks: &mut [Stack<'_>; STREAM_WIDTH],
+        ) {
+            closest_stream_loop::<$test, N, V>(nodes, count, start, finish, stacks);
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $any<N: WideBvhNode, V: AnyLeaves>(
+            nodes: &[N],
+            count: usize,
+            start: impl FnMut(usize) -> (NodeRay, f32, V),
+            finish: impl FnMut(usize, bool),
+            stacks: &mut [Stack<'_>; STREAM_WIDTH],
+        ) {
+            any_stream_loop::<$test, N, V>(nodes, count, start, finish, stacks);
+        }
+    };
+}
+
+stream_entry_points!("avx,fma,sse4.1,popcnt", avx::AvxTest<false>, closest_stream_avx, any_stream_avx);
+stream_entry_points!("avx2,fma,bmi1,popcnt", avx::AvxTest<true>, closest_stream_avx2, any_stream_avx2);
+
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx,fma,sse4.1,popcnt")]
 fn closest_avx<N: WideBvhNode>(
@@ -565,90 +657,141 @@ fn prefetch_ahead<N: WideBvhNode>(nodes: &[N], node: &N, hits: u32, leaf: impl F
     }
 }
 
+/// Stack entries for leaves: the flag bit, the primitive count in bits 29-30 and the first
+/// primitive below, so leaves and nodes share one distance-ordered stack.
+const LEAF_FLAG: u32 = 1 << 31;
+const LEAF_FIRST_MASK: u32 = (1 << 29) - 1;
+
+/// Primitive indices a leaf stack entry can hold: leaf-order slots must stay below this.
+pub const MAX_LEAF_FIRST: u32 = LEAF_FIRST_MASK;
+
+/// Where one ray's traversal stands between steps: the node to visit next and the distance
+/// limit (the closest hit so far, for closest-hit queries).
+#[derive(Clone, Copy, Debug)]
+struct Cursor {
+    current: u32,
+    t_max: f32,
+}
+
+/// One step of the closest-hit traversal: tests the leaf or visits the node `c.current`
+/// (pushing its hit children, leaves and nodes alike, farthest first), then pops the next
+/// item entered before the closest hit so far. Returns false when the ray is done.
+///
+/// Leaves are tested in the same nearest-first order as nodes are entered, so that a near
+/// hit culls the farther leaves and subtrees alike; and each step touches one item, whose
+/// data a stream traversal prefetches while it steps the other rays.
+#[inline(always)]
+fn closest_step<T: NodeTest, N: WideBvhNode>(
+    nodes: &[N],
+    ray: &NodeRay,
+    c: &mut Cursor,
+    visitor: &mut impl ClosestLeaves,
+    stack: &mut Stack<'_>,
+) -> bool {
+    if c.current & LEAF_FLAG != 0 {
+        visitor.test(c.current & LEAF_FIRST_MASK, (c.current >> 29) & 3, &mut c.t_max);
+    } else {
+        let node = &nodes[c.current as usize];
+        let (hits, tnear) = T::hits(node, ray, c.t_max);
+        let imask = node.inner_mask();
+        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
+        let n = hits.count_ones() as usize;
+        let mut order = [(0u32, 0.0f32); 8];
+        let mut rest = hits;
+        for k in 0..n {
+            let slot = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let id = if imask & (1 << slot) != 0 {
+                node.child(slot)
+            } else {
+                let (first, count) = node.leaf(slot);
+                LEAF_FLAG | count << 29 | first
+            };
+            let item = (id, tnear[slot]);
+            let mut j = k;
+            while j > 0 && order[j - 1].1 < item.1 {
+                order[j] = order[j - 1];
+                j -= 1;
+            }
+            order[j] = item;
+        }
+        for &(id, t) in &order[..n] {
+            stack.push(id, t);
+        }
+    }
+    loop {
+        match stack.pop() {
+            None => return false,
+            Some((id, t)) if t <= c.t_max => {
+                c.current = id;
+                return true;
+            }
+            Some(_) => {}
+        }
+    }
+}
+
+/// Starts loading the leaf or node that a cursor will visit next.
+#[inline(always)]
+fn prefetch_item<N: WideBvhNode>(nodes: &[N], id: u32, leaf: impl Fn(u32, u32)) {
+    if id & LEAF_FLAG != 0 {
+        leaf(id & LEAF_FIRST_MASK, (id >> 29) & 3);
+    } else {
+        prefetch_node(nodes, id);
+    }
+}
+
 #[inline(always)]
 fn closest_loop<T: NodeTest, N: WideBvhNode>(
     nodes: &[N],
     ray: &NodeRay,
-    mut t_max: f32,
+    t_max: f32,
     visitor: &mut impl ClosestLeaves,
     mut stack: Stack<'_>,
 ) {
-    let mut current = 0u32;
-    loop {
-        let node = &nodes[current as usize];
-        let (hits, tnear) = T::hits(node, ray, t_max);
+    let mut c = Cursor { current: 0, t_max };
+    while closest_step::<T, N>(nodes, ray, &mut c, visitor, &mut stack) {}
+}
+
+/// One step of the any-hit traversal: tests the leaf or visits the node `c.current` (pushing
+/// its hit children), then pops the next item. Returns `Some(found)` when the ray is done.
+#[inline(always)]
+fn any_step<T: NodeTest, N: WideBvhNode>(
+    nodes: &[N],
+    ray: &NodeRay,
+    c: &mut Cursor,
+    visitor: &mut impl AnyLeaves,
+    stack: &mut Stack<'_>,
+) -> Option<bool> {
+    if c.current & LEAF_FLAG != 0 {
+        if visitor.test(c.current & LEAF_FIRST_MASK, (c.current >> 29) & 3) {
+            return Some(true);
+        }
+    } else {
+        let node = &nodes[c.current as usize];
+        let (hits, _) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
-        let mut leaves = hits & !imask;
         prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
-        let entry_t_max = t_max;
-        while leaves != 0 {
-            // Nearest leaf first, so that a hit culls the farther ones.
-            let mut slot = leaves.trailing_zeros() as usize;
-            let mut rest = leaves & (leaves - 1);
-            while rest != 0 {
-                let s = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                if tnear[s] < tnear[slot] {
-                    slot = s;
-                }
-            }
-            leaves &= !(1 << slot);
-            // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
-            if tnear[slot] <= t_max {
-                let (first, count) = node.leaf(slot);
-                visitor.test(first, count, &mut t_max);
-            }
+        // Nodes below leaves on the stack: the leaves, already being loaded, come first.
+        let mut rest = hits & imask;
+        while rest != 0 {
+            let slot = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            stack.push(node.child(slot), 0.0);
         }
-        let mut inner = hits & imask;
-        if t_max < entry_t_max {
-            // Drop the children now entered beyond the closest hit.
-            let mut m = inner;
-            while m != 0 {
-                let slot = m.trailing_zeros() as usize;
-                m &= m - 1;
-                if tnear[slot] > t_max {
-                    inner &= !(1 << slot);
-                }
-            }
+        let mut rest = hits & !imask;
+        while rest != 0 {
+            let slot = rest.trailing_zeros() as usize;
+            rest &= rest - 1;
+            let (first, count) = node.leaf(slot);
+            stack.push(LEAF_FLAG | count << 29 | first, 0.0);
         }
-        match inner.count_ones() {
-            0 => {}
-            1 => {
-                current = node.child(inner.trailing_zeros() as usize);
-                continue;
-            }
-            n => {
-                // Sort the children by entry distance, farthest first, and push all but the
-                // nearest, which is visited next.
-                let mut order = [(0u32, 0.0f32); 8];
-                let n = n as usize;
-                for k in 0..n {
-                    let slot = inner.trailing_zeros() as usize;
-                    inner &= inner - 1;
-                    let item = (node.child(slot), tnear[slot]);
-                    let mut j = k;
-                    while j > 0 && order[j - 1].1 < item.1 {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = item;
-                }
-                for &(c, t) in &order[..n - 1] {
-                    stack.push(c, t);
-                }
-                current = order[n - 1].0;
-                continue;
-            }
-        }
-        loop {
-            match stack.pop() {
-                None => return,
-                Some((c, t)) if t <= t_max => {
-                    current = c;
-                    break;
-                }
-                Some(_) => {}
-            }
+    }
+    match stack.pop() {
+        None => Some(false),
+        Some((id, _)) => {
+            c.current = id;
+            None
         }
     }
 }
@@ -661,35 +804,97 @@ fn any_loop<T: NodeTest, N: WideBvhNode>(
     visitor: &mut impl AnyLeaves,
     mut stack: Stack<'_>,
 ) -> bool {
-    let mut current = 0u32;
+    let mut c = Cursor { current: 0, t_max };
     loop {
-        let node = &nodes[current as usize];
-        let (hits, _) = T::hits(node, ray, t_max);
-        let imask = node.inner_mask();
-        let mut leaves = hits & !imask;
-        prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
-        while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
-            let (first, count) = node.leaf(slot);
-            if visitor.test(first, count) {
-                return true;
+        if let Some(found) = any_step::<T, N>(nodes, ray, &mut c, visitor, &mut stack) {
+            return found;
+        }
+    }
+}
+
+/// Rays a stream traversal keeps in flight on one thread.
+pub const STREAM_WIDTH: usize = 8;
+
+/// One ray in flight in a stream traversal: its index, node constants, cursor and leaf test.
+type InFlight<V> = (usize, NodeRay, Cursor, V);
+
+/// Takes the next ray of the stream into an empty lane.
+#[inline(always)]
+fn refill<V>(
+    lane: &mut Option<InFlight<V>>,
+    stack: &mut Stack<'_>,
+    next: &mut usize,
+    count: usize,
+    start: &mut impl FnMut(usize) -> (NodeRay, f32, V),
+) {
+    if lane.is_none() && *next < count {
+        let (ray, t_max, visitor) = start(*next);
+        *lane = Some((*next, ray, Cursor { current: 0, t_max }, visitor));
+        stack.len = 0;
+        *next += 1;
+    }
+}
+
+/// The closest-hit traversal of rays `0..count`, [`STREAM_WIDTH`] in flight, interleaved one
+/// node step each: while one ray waits for its next node from memory, the others work, and
+/// the node each ray will visit next is prefetched when it is chosen (software pipelining,
+/// as in the stream tracers of Wald et al. 2014 and Barringer & Akenine-Möller 2014). Each
+/// ray takes exactly the steps of its single-ray traversal, so results are the same.
+#[inline(always)]
+fn closest_stream_loop<T: NodeTest, N: WideBvhNode, V: ClosestLeaves>(
+    nodes: &[N],
+    count: usize,
+    mut start: impl FnMut(usize) -> (NodeRay, f32, V),
+    mut finish: impl FnMut(usize, V),
+    stacks: &mut [Stack<'_>; STREAM_WIDTH],
+) {
+    let mut lanes: [Option<InFlight<V>>; STREAM_WIDTH] = std::array::from_fn(|_| None);
+    let mut next = 0;
+    loop {
+        let mut busy = false;
+        for (lane, stack) in lanes.iter_mut().zip(stacks.iter_mut()) {
+            refill(lane, stack, &mut next, count, &mut start);
+            let Some((_, ray, cursor, visitor)) = lane else { continue };
+            busy = true;
+            if closest_step::<T, N>(nodes, ray, cursor, visitor, stack) {
+                prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count));
+            } else if let Some((i, _, _, visitor)) = lane.take() {
+                finish(i, visitor);
             }
         }
-        let mut inner = hits & imask;
-        if inner == 0 {
-            match stack.pop() {
-                None => return false,
-                Some((c, _)) => current = c,
-            }
-            continue;
+        if !busy {
+            return;
         }
-        current = node.child(inner.trailing_zeros() as usize);
-        inner &= inner - 1;
-        while inner != 0 {
-            let slot = inner.trailing_zeros() as usize;
-            inner &= inner - 1;
-            stack.push(node.child(slot), 0.0);
+    }
+}
+
+/// [`closest_stream_loop`] for any-hit queries; `finish` gets whether the ray hit.
+#[inline(always)]
+fn any_stream_loop<T: NodeTest, N: WideBvhNode, V: AnyLeaves>(
+    nodes: &[N],
+    count: usize,
+    mut start: impl FnMut(usize) -> (NodeRay, f32, V),
+    mut finish: impl FnMut(usize, bool),
+    stacks: &mut [Stack<'_>; STREAM_WIDTH],
+) {
+    let mut lanes: [Option<InFlight<V>>; STREAM_WIDTH] = std::array::from_fn(|_| None);
+    let mut next = 0;
+    loop {
+        let mut busy = false;
+        for (lane, stack) in lanes.iter_mut().zip(stacks.iter_mut()) {
+            refill(lane, stack, &mut next, count, &mut start);
+            let Some((i, ray, cursor, visitor)) = lane else { continue };
+            busy = true;
+            match any_step::<T, N>(nodes, ray, cursor, visitor, stack) {
+                None => prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count)),
+                Some(found) => {
+                    finish(*i, found);
+                    *lane = None;
+                }
+            }
+        }
+        if !busy {
+            return;
         }
     }
 }
