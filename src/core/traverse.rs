@@ -715,6 +715,14 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
             }
             order[j] = item;
         }
+        if n > 0 && order[n - 1].0 & LEAF_FLAG == 0 {
+            // The nearest child is a node: it is next (what a push and a pop would give).
+            for &(id, t) in &order[..n - 1] {
+                stack.push(id, t);
+            }
+            c.current = order[n - 1].0;
+            return true;
+        }
         for &(id, t) in &order[..n] {
             stack.push(id, t);
         }
