@@ -627,11 +627,17 @@ mod tests {
             bvh.closest_triangles_into(&rays, &mut triangles);
             bvh.closest_hits_into(&rays, &mut hits);
             bvh.occluded_into(&rays, &mut blocked);
+            // The same distance bit for bit; the triangle may differ only on an exact tie
+            // (a ray through a shared edge), which streams and single rays may break apart.
+            let mut ties = 0;
             for (i, ray) in rays.iter().enumerate() {
-                assert_eq!(triangles[i], portable.closest_triangle(ray), "stream ray {i}");
-                assert_eq!(hits[i], portable.closest_hit(ray), "stream ray {i}");
+                let single = portable.closest_triangle(ray);
+                assert_eq!(triangles[i].map(|h| h.1), single.map(|h| h.1), "stream ray {i}");
+                ties += usize::from(triangles[i] != single);
+                assert_eq!(hits[i].map(|h| h.t), single.map(|h| h.1), "stream ray {i}");
                 assert_eq!(blocked[i], portable.occluded(ray), "stream ray {i}");
             }
+            assert!(ties <= rays.len() / 1000, "{ties} ties");
         }
         for k in 0..20_000u64 {
             let mut r = stream(4, 1, k);

@@ -677,11 +677,13 @@ struct Cursor {
 /// (pushing its hit children, leaves and nodes alike, farthest first), then pops the next
 /// item entered before the closest hit so far. Returns false when the ray is done.
 ///
-/// Leaves are tested in the same nearest-first order as nodes are entered, so that a near
-/// hit culls the farther leaves and subtrees alike; and each step touches one item, whose
-/// data a stream traversal prefetches while it steps the other rays.
+/// With `DEFER` (streams), leaves are tested in the same nearest-first order as nodes are
+/// entered, so that a near hit culls the farther leaves and subtrees alike, and each step
+/// touches one item, whose data the stream prefetches while it steps the other rays.
+/// Without it (single rays), a node's leaves are tested during its visit, nearest first,
+/// which costs fewer stack operations; both find the same closest hit.
 #[inline(always)]
-fn closest_step<T: NodeTest, N: WideBvhNode>(
+fn closest_step<const DEFER: bool, T: NodeTest, N: WideBvhNode>(
     nodes: &[N],
     ray: &NodeRay,
     c: &mut Cursor,
@@ -692,9 +694,39 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
         visitor.test(c.current & LEAF_FIRST_MASK, (c.current >> 29) & 3, &mut c.t_max);
     } else {
         let node = &nodes[c.current as usize];
-        let (hits, tnear) = T::hits(node, ray, c.t_max);
+        let (mut hits, tnear) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
         prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
+        if !DEFER {
+            // A single ray tests the node's leaves at once, nearest first, and keeps only
+            // the child nodes entered before a hit they give.
+            let mut leaves = hits & !imask;
+            while leaves != 0 {
+                let mut slot = leaves.trailing_zeros() as usize;
+                let mut rest = leaves & (leaves - 1);
+                while rest != 0 {
+                    let s = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    if tnear[s] < tnear[slot] {
+                        slot = s;
+                    }
+                }
+                leaves &= !(1 << slot);
+                if tnear[slot] <= c.t_max {
+                    let (first, count) = node.leaf(slot);
+                    visitor.test(first, count, &mut c.t_max);
+                }
+            }
+            hits &= imask;
+            let mut m = hits;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                if tnear[slot] > c.t_max {
+                    hits &= !(1 << slot);
+                }
+            }
+        }
         let n = hits.count_ones() as usize;
         let mut order = [(0u32, 0.0f32); 8];
         let mut rest = hits;
@@ -731,8 +763,11 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
         match stack.pop() {
             None => return false,
             Some((id, t)) if t <= c.t_max => {
-                c.current = id;
-                return true;
+                if DEFER || id & LEAF_FLAG == 0 {
+                    c.current = id;
+                    return true;
+                }
+                visitor.test(id & LEAF_FIRST_MASK, (id >> 29) & 3, &mut c.t_max);
             }
             Some(_) => {}
         }
@@ -758,13 +793,15 @@ fn closest_loop<T: NodeTest, N: WideBvhNode>(
     mut stack: Stack<'_>,
 ) {
     let mut c = Cursor { current: 0, t_max };
-    while closest_step::<T, N>(nodes, ray, &mut c, visitor, &mut stack) {}
+    while closest_step::<false, T, N>(nodes, ray, &mut c, visitor, &mut stack) {}
 }
 
-/// One step of the any-hit traversal: tests the leaf or visits the node `c.current` (pushing
-/// its hit children), then pops the next item. Returns `Some(found)` when the ray is done.
+/// One step of the any-hit traversal: tests the leaf or visits the node `c.current`, then
+/// moves to the next item. Returns `Some(found)` when the ray is done. With `DEFER`
+/// (streams) a node's hit leaves go on the stack to be tested in later steps, once their
+/// prefetched data has arrived; without it they are tested during the visit.
 #[inline(always)]
-fn any_step<T: NodeTest, N: WideBvhNode>(
+fn any_step<const DEFER: bool, T: NodeTest, N: WideBvhNode>(
     nodes: &[N],
     ray: &NodeRay,
     c: &mut Cursor,
@@ -780,17 +817,38 @@ fn any_step<T: NodeTest, N: WideBvhNode>(
         let (hits, _) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
         prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
+        let mut leaves = hits & !imask;
+        if !DEFER {
+            while leaves != 0 {
+                let slot = leaves.trailing_zeros() as usize;
+                leaves &= leaves - 1;
+                let (first, count) = node.leaf(slot);
+                if visitor.test(first, count) {
+                    return Some(true);
+                }
+            }
+        }
         // Nodes below leaves on the stack: the leaves, already being loaded, come first.
-        let mut rest = hits & imask;
-        while rest != 0 {
-            let slot = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
+        let mut inner = hits & imask;
+        if !DEFER && inner != 0 {
+            // The first child node is next (what a push and a pop would give).
+            c.current = node.child(inner.trailing_zeros() as usize);
+            inner &= inner - 1;
+            while inner != 0 {
+                let slot = inner.trailing_zeros() as usize;
+                inner &= inner - 1;
+                stack.push(node.child(slot), 0.0);
+            }
+            return None;
+        }
+        while inner != 0 {
+            let slot = inner.trailing_zeros() as usize;
+            inner &= inner - 1;
             stack.push(node.child(slot), 0.0);
         }
-        let mut rest = hits & !imask;
-        while rest != 0 {
-            let slot = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
+        while leaves != 0 {
+            let slot = leaves.trailing_zeros() as usize;
+            leaves &= leaves - 1;
             let (first, count) = node.leaf(slot);
             stack.push(LEAF_FLAG | count << 29 | first, 0.0);
         }
@@ -814,7 +872,7 @@ fn any_loop<T: NodeTest, N: WideBvhNode>(
 ) -> bool {
     let mut c = Cursor { current: 0, t_max };
     loop {
-        if let Some(found) = any_step::<T, N>(nodes, ray, &mut c, visitor, &mut stack) {
+        if let Some(found) = any_step::<false, T, N>(nodes, ray, &mut c, visitor, &mut stack) {
             return found;
         }
     }
@@ -864,7 +922,7 @@ fn closest_stream_loop<T: NodeTest, N: WideBvhNode, V: ClosestLeaves>(
             refill(lane, stack, &mut next, count, &mut start);
             let Some((_, ray, cursor, visitor)) = lane else { continue };
             busy = true;
-            if closest_step::<T, N>(nodes, ray, cursor, visitor, stack) {
+            if closest_step::<true, T, N>(nodes, ray, cursor, visitor, stack) {
                 prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count));
             } else if let Some((i, _, _, visitor)) = lane.take() {
                 finish(i, visitor);
@@ -893,7 +951,7 @@ fn any_stream_loop<T: NodeTest, N: WideBvhNode, V: AnyLeaves>(
             refill(lane, stack, &mut next, count, &mut start);
             let Some((i, ray, cursor, visitor)) = lane else { continue };
             busy = true;
-            match any_step::<T, N>(nodes, ray, cursor, visitor, stack) {
+            match any_step::<true, T, N>(nodes, ray, cursor, visitor, stack) {
                 None => prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count)),
                 Some(found) => {
                     finish(*i, found);
