@@ -10,7 +10,7 @@ use propsim::cli::bench_trace::{
 
 fn main() {
     let mesh = terrain(1_000_000);
-    let (accel, builds) = timed_builds(&mesh, 3);
+    let (accel, builds) = timed_builds(&mesh, 3, propsim::core::BuildQuality::default());
     println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
     println!("build: {:.3} s (median of 3)", median(builds));
     for (name, rays) in [("coherent", coherent_rays(1 << 20)), ("incoherent", incoherent_rays(1 << 20, 1))] {

@@ -30,6 +30,10 @@ pub struct TraceArgs {
     /// Timed repetitions; the median is reported.
     #[arg(long, default_value_t = 5)]
     pub repeat: usize,
+    /// BVH build quality: fast, medium (the default everywhere in propsim) or high; to weigh
+    /// build time against ray speed.
+    #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "high"])]
+    pub quality: String,
     /// Write the generated mesh (OBJ) and ray sets (PREFIX_coherent.bin, PREFIX_incoherent.bin)
     /// so other tracers can be run on the same input.
     #[arg(long)]
@@ -174,15 +178,15 @@ pub fn peak_rss_mb() -> Option<f64> {
 
 /// Builds the BVH `count` times (at least once), dropping each before the next so peak memory
 /// holds one; returns the last build and every build time in seconds.
-pub fn timed_builds(mesh: &TriangleMesh, count: usize) -> (Accel, Vec<f64>) {
+pub fn timed_builds(mesh: &TriangleMesh, count: usize, quality: BuildQuality) -> (Accel, Vec<f64>) {
     let mut builds = Vec::new();
     let mut t = Instant::now();
-    let mut accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+    let mut accel = Accel::build(mesh, Vec::new(), quality);
     builds.push(t.elapsed().as_secs_f64());
     for _ in 1..count {
         drop(accel);
         t = Instant::now();
-        accel = Accel::build(mesh, Vec::new(), BuildQuality::default());
+        accel = Accel::build(mesh, Vec::new(), quality);
         builds.push(t.elapsed().as_secs_f64());
     }
     (accel, builds)
@@ -275,7 +279,12 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
     }
     println!("mesh:        {label}, {} triangles", mesh.triangle_count());
     println!("threads:     {}", rayon::current_num_threads());
-    let (accel, builds) = timed_builds(&mesh, args.repeat.clamp(1, 3));
+    let quality = match args.quality.as_str() {
+        "fast" => BuildQuality::Fast,
+        "high" => BuildQuality::High,
+        _ => BuildQuality::Medium,
+    };
+    let (accel, builds) = timed_builds(&mesh, args.repeat.clamp(1, 3), quality);
     println!(
         "build:       {:.3} s (median of {}), BVH + triangles {:.1} MB",
         median(builds.clone()),
