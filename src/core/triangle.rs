@@ -23,12 +23,18 @@ impl RayShear {
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
-        // kz: the axis of the largest |dir| (x before y before z on ties), without branches,
-        // which incoherent rays would mispredict.
-        let not_x = usize::from(!(a.x >= a.y && a.x >= a.z));
-        let kz = not_x * (1 + usize::from(a.y < a.z));
-        let (next, after) = ([1, 2, 0][kz], [2, 0, 1][kz]);
-        let (kx, ky) = if dir[kz] < 0.0 { (after, next) } else { (next, after) };
+        let kz = if a.x >= a.y && a.x >= a.z {
+            0
+        } else if a.y >= a.z {
+            1
+        } else {
+            2
+        };
+        let mut kx = (kz + 1) % 3;
+        let mut ky = (kx + 1) % 3;
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
         Self {
             origin: origin.into(),
             kx,
