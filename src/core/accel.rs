@@ -573,6 +573,12 @@ mod tests {
             simd.traverser = *variant;
             compare(&reference, &simd);
         }
+        // Batches as streams (this small tree would otherwise take single rays), for every
+        // traversal, the portable one included.
+        for variant in &variants {
+            simd.traverser = variant.streams(true);
+            compare(&reference, &simd);
+        }
     }
 
     #[test]
