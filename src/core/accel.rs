@@ -224,6 +224,10 @@ impl MeshBvh {
 
     /// [`MeshBvh::closest_triangle`] of every ray, traced as one stream, into `out`.
     pub fn closest_triangles_into(&self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
+        if !self.traverser.streams() {
+            out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.closest_triangle(r));
+            return;
+        }
         self.closest_lanes_stream(rays, |i, best| {
             out[i] = best.map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t));
         });
@@ -231,6 +235,10 @@ impl MeshBvh {
 
     /// [`MeshBvh::closest_hit`] of every ray, traced as one stream, into `out`.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        if !self.traverser.streams() {
+            out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.closest_hit(r));
+            return;
+        }
         self.closest_lanes_stream(rays, |i, best| {
             out[i] = best.map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, &rays[i]));
         });
@@ -238,6 +246,10 @@ impl MeshBvh {
 
     /// [`MeshBvh::occluded`] of every ray, traced as one stream, into `out`.
     pub fn occluded_into(&self, rays: &[Ray], out: &mut [bool]) {
+        if !self.traverser.streams() {
+            out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.occluded(r));
+            return;
+        }
         self.traverser.any_stream(
             &self.nodes,
             rays.len(),
@@ -576,7 +588,7 @@ mod tests {
         // Batches as streams (this small tree would otherwise take single rays), for every
         // traversal, the portable one included.
         for variant in &variants {
-            simd.traverser = variant.streams(true);
+            simd.traverser = variant.with_streams(true);
             compare(&reference, &simd);
         }
     }

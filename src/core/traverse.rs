@@ -439,8 +439,13 @@ impl Traverser {
 
     /// This traversal with streams on or off whatever the tree's size: for tests.
     #[cfg(test)]
-    pub(crate) fn streams(self, on: bool) -> Self {
+    pub(crate) fn with_streams(self, on: bool) -> Self {
         Self { stream: on, ..self }
+    }
+
+    /// Whether batches of rays should go as streams ([`STREAM_MIN_NODES`]).
+    pub fn streams(&self) -> bool {
+        self.stream
     }
 
     /// Every traversal this CPU can run, the portable one first: for tests of one against
