@@ -158,15 +158,23 @@ impl MeshBvh {
             + self.mesh_index.len() * 8
     }
 
+    /// The leaf test of a closest-hit query for `ray`.
+    #[inline(always)]
+    fn closest_visitor(&self, ray: &Ray) -> ClosestTriangle<'_> {
+        let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
+        ClosestTriangle { leaves: &self.leaves, shear, t_min: ray.t_min, best: None }
+    }
+
+    /// The leaf test of an occlusion query for `ray`.
+    #[inline(always)]
+    fn occlusion_visitor<'a>(&'a self, ray: &'a Ray) -> Occlusion<'a> {
+        Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray }
+    }
+
     /// The closest hit as (leaf, lane, distance, barycentrics).
     #[inline]
     fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
-        let mut visitor = ClosestTriangle {
-            leaves: &self.leaves,
-            shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)),
-            t_min: ray.t_min,
-            best: None,
-        };
+        let mut visitor = self.closest_visitor(ray);
         self.traverser.closest(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
         visitor.best
     }
@@ -198,8 +206,7 @@ impl MeshBvh {
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        let mut visitor =
-            Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray };
+        let mut visitor = self.occlusion_visitor(ray);
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
@@ -209,15 +216,7 @@ impl MeshBvh {
         self.traverser.closest_stream(
             &self.nodes,
             rays.len(),
-            |i| {
-                let ray = &rays[i];
-                let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
-                (
-                    node_ray(ray),
-                    ray.t_max,
-                    ClosestTriangle { leaves: &self.leaves, shear, t_min: ray.t_min, best: None },
-                )
-            },
+            |i| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i])),
             |i, visitor| out(i, visitor.best),
         );
     }
@@ -253,11 +252,7 @@ impl MeshBvh {
         self.traverser.any_stream(
             &self.nodes,
             rays.len(),
-            |i| {
-                let ray = &rays[i];
-                let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
-                (node_ray(ray), ray.t_max, Occlusion { leaves: &self.leaves, shear, ray })
-            },
+            |i| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i])),
             |i, hit| out[i] = hit,
         );
     }

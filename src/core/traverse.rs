@@ -596,12 +596,37 @@ impl Traverser {
     }
 }
 
-/// The stream traversals compiled for one instruction set.
-macro_rules! stream_entry_points {
-    ($features:literal, $test:ty, $closest:ident, $any:ident) => {
+/// The traversals (single rays and streams, closest and any hit) compiled for one
+/// instruction set: `target_feature` entry points around the generic loops.
+macro_rules! entry_points {
+    ($features:literal, $test:ty, $closest:ident, $any:ident, $closest_stream:ident, $any_stream:ident) => {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        fn $closest<N: WideBvhNode, V: ClosestLeaves>(
+        fn $closest<N: WideBvhNode>(
+            nodes: &[N],
+            ray: &NodeRay,
+            t_max: f32,
+            leaves: &mut impl ClosestLeaves,
+            stack: Stack<'_>,
+        ) {
+            closest_loop::<$test, N>(nodes, ray, t_max, leaves, stack);
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $any<N: WideBvhNode>(
+            nodes: &[N],
+            ray: &NodeRay,
+            t_max: f32,
+            leaves: &mut impl AnyLeaves,
+            stack: Stack<'_>,
+        ) -> bool {
+            any_loop::<$test, N>(nodes, ray, t_max, leaves, stack)
+        }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $closest_stream<N: WideBvhNode, V: ClosestLeaves>(
             nodes: &[N],
             count: usize,
             start: impl FnMut(usize) -> (NodeRay, f32, V),
@@ -613,7 +638,7 @@ macro_rules! stream_entry_points {
 
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        fn $any<N: WideBvhNode, V: AnyLeaves>(
+        fn $any_stream<N: WideBvhNode, V: AnyLeaves>(
             nodes: &[N],
             count: usize,
             start: impl FnMut(usize) -> (NodeRay, f32, V),
@@ -625,56 +650,22 @@ macro_rules! stream_entry_points {
     };
 }
 
-stream_entry_points!("avx,fma,sse4.1,popcnt", avx::AvxTest<false>, closest_stream_avx, any_stream_avx);
-stream_entry_points!("avx2,fma,bmi1,popcnt", avx::AvxTest<true>, closest_stream_avx2, any_stream_avx2);
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn closest_avx<N: WideBvhNode>(
-    nodes: &[N],
-    ray: &NodeRay,
-    t_max: f32,
-    leaves: &mut impl ClosestLeaves,
-    stack: Stack<'_>,
-) {
-    closest_loop::<avx::AvxTest<false>, N>(nodes, ray, t_max, leaves, stack);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx,fma,sse4.1,popcnt")]
-fn any_avx<N: WideBvhNode>(
-    nodes: &[N],
-    ray: &NodeRay,
-    t_max: f32,
-    leaves: &mut impl AnyLeaves,
-    stack: Stack<'_>,
-) -> bool {
-    any_loop::<avx::AvxTest<false>, N>(nodes, ray, t_max, leaves, stack)
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
-fn closest_avx2<N: WideBvhNode>(
-    nodes: &[N],
-    ray: &NodeRay,
-    t_max: f32,
-    leaves: &mut impl ClosestLeaves,
-    stack: Stack<'_>,
-) {
-    closest_loop::<avx::AvxTest<true>, N>(nodes, ray, t_max, leaves, stack);
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,bmi1,popcnt")]
-fn any_avx2<N: WideBvhNode>(
-    nodes: &[N],
-    ray: &NodeRay,
-    t_max: f32,
-    leaves: &mut impl AnyLeaves,
-    stack: Stack<'_>,
-) -> bool {
-    any_loop::<avx::AvxTest<true>, N>(nodes, ray, t_max, leaves, stack)
-}
+entry_points!(
+    "avx,fma,sse4.1,popcnt",
+    avx::AvxTest<false>,
+    closest_avx,
+    any_avx,
+    closest_stream_avx,
+    any_stream_avx
+);
+entry_points!(
+    "avx2,fma,bmi1,popcnt",
+    avx::AvxTest<true>,
+    closest_avx2,
+    any_avx2,
+    closest_stream_avx2,
+    any_stream_avx2
+);
 
 /// Prefetches the leaves and the internal children among the `hits` of `node`, so that their
 /// loads overlap the leaf tests.
