@@ -557,16 +557,9 @@ mod tests {
 
     #[test]
     fn simd_and_portable_traversals_agree() {
-        let mut mesh = TriangleMesh::default();
-        let s = mesh.surface_id("a");
-        let mut r = stream(3, 0, 0);
-        for _ in 0..3000 {
-            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 - 20.0;
-            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 3.0;
-            let tri = [corner(), corner(), corner()];
-            mesh.push_triangle(tri, s);
-        }
+        let mut mesh = random_triangles(3, 3000, Vec3::splat(-20.0), 3.0);
         // Axis-aligned triangles too, for flat boxes and -0.0 directions.
+        let s = mesh.surface_id("a");
         mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 6, s);
         let reference = {
             let mut m = MeshBvh::build(&mesh, BuildQuality::default());
@@ -590,15 +583,7 @@ mod tests {
 
     #[test]
     fn parallel_collapse_matches_obvhs() {
-        let mut mesh = TriangleMesh::default();
-        let s = mesh.surface_id("a");
-        let mut r = stream(5, 0, 0);
-        for _ in 0..20_000 {
-            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0;
-            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r));
-            let tri = [corner(), corner(), corner()];
-            mesh.push_triangle(tri, s);
-        }
+        let mesh = random_triangles(5, 20_000, Vec3::ZERO, 1.0);
         let bounds: Vec<Bounds> = (0..mesh.triangle_count())
             .map(|i| {
                 let [a, b, c] = mesh.corners(i);
@@ -621,6 +606,21 @@ mod tests {
             assert!(nodes == reference.nodes, "{quality:?}: nodes differ");
             assert_eq!(prims, reference.primitive_indices, "{quality:?}");
         }
+    }
+
+    /// `count` random triangles of surface "a", each within a cube of side `size` whose
+    /// corner is uniform in the 40 m cube from `low`.
+    fn random_triangles(seed: u64, count: usize, low: Vec3, size: f32) -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("a");
+        let mut r = stream(seed, 0, 0);
+        for _ in 0..count {
+            let c = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 + low;
+            let mut corner = || c + Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * size;
+            let tri = [corner(), corner(), corner()];
+            mesh.push_triangle(tri, s);
+        }
+        mesh
     }
 
     fn compare(portable: &MeshBvh, simd: &MeshBvh) {
