@@ -433,7 +433,7 @@ impl Traverser {
         Self {
             isa: Isa::chosen(),
             stack_len: 8 * (depth(nodes) + 1),
-            stream: nodes.len() >= STREAM_MIN_NODES,
+            stream: nodes.len() >= STREAM_MIN_NODES && leaves_fit_stream_entries(nodes),
         }
     }
 
@@ -690,8 +690,14 @@ fn prefetch_ahead<N: WideBvhNode>(nodes: &[N], node: &N, hits: u32, leaf: impl F
 const LEAF_FLAG: u32 = 1 << 31;
 const LEAF_FIRST_MASK: u32 = (1 << 29) - 1;
 
-/// Primitive indices a leaf stack entry can hold: leaf-order slots must stay below this.
-pub const MAX_LEAF_FIRST: u32 = LEAF_FIRST_MASK;
+/// Whether every leaf of `nodes` fits a stream's leaf stack entry (first primitive below
+/// 2^29, about 540 million triangles); streams are off for trees that do not.
+fn leaves_fit_stream_entries<N: WideBvhNode>(nodes: &[N]) -> bool {
+    nodes.iter().all(|n| {
+        let leaves = n.occupied_mask() & !n.inner_mask();
+        (0..8).filter(|s| leaves & (1 << s) != 0).all(|s| n.leaf(s).0 <= LEAF_FIRST_MASK)
+    })
+}
 
 /// Where one ray's traversal stands between steps: the node to visit next and the distance
 /// limit (the closest hit so far, for closest-hit queries).
@@ -1069,4 +1075,22 @@ fn depth<N: WideBvhNode>(nodes: &[N]) -> usize {
         below[i] = d;
     }
     below[0] as usize
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaves_beyond_the_stream_entry_range_turn_streams_off() {
+        // One leaf of one triangle in slot 0, starting at primitive `first`.
+        let node = |first: u32| CwBvhNode {
+            primitive_base_idx: first,
+            child_meta: [0b0010_0000, 0, 0, 0, 0, 0, 0, 0],
+            ..Default::default()
+        };
+        assert!(leaves_fit_stream_entries(&[node(0), node(LEAF_FIRST_MASK)]));
+        assert!(!leaves_fit_stream_entries(&[node(0), node(LEAF_FIRST_MASK + 1)]));
+        assert_eq!(node(7).leaf(0), (7, 1));
+    }
 }
