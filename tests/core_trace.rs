@@ -84,65 +84,71 @@ fn bvh_matches_brute_force_on_1e5_random_rays_for_every_quality() {
 
 #[test]
 fn one_million_rays_from_inside_a_closed_subdivided_box_all_hit() {
-    let mut mesh = TriangleMesh::default();
-    let s = mesh.surface_id("wall");
-    // 6 * 60 * 60 * 2 = 43,200 triangles with many shared edges and vertices.
-    mesh.push_box(Vec3::new(-1.3, -0.7, -2.1), Vec3::new(2.9, 1.7, 0.9), 60, s);
-    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-    let n = 1_000_000;
-    let rays: Vec<Ray> = (0..n)
-        .map(|k| {
-            let mut r = stream(99, 2, k as u64);
-            let o = Vec3::new(-1.2, -0.6, -2.0)
-                + Vec3::new(uniform(&mut r) * 4.0, uniform(&mut r) * 2.2, uniform(&mut r) * 2.8);
-            // Half the rays aim exactly at vertices and edges of the subdivision grid.
-            let d = if k % 2 == 0 {
-                uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)))
-            } else {
-                let i = (uniform(&mut r) * 61.0).floor() / 60.0;
-                let j = (uniform(&mut r) * 61.0).floor() / 60.0;
-                (Vec3::new(-1.3 + 4.2 * i, -0.7 + 2.4 * j, 0.9) - o).normalize()
-            };
-            Ray::new(o, d)
-        })
-        .collect();
-    let hits = accel.closest_triangles(&rays);
-    let misses = hits.iter().filter(|h| h.is_none()).count();
-    assert_eq!(misses, 0, "{misses} of {n} rays escaped the closed box");
+    // 6 * 60 * 60 * 2 = 43,200 triangles with many shared edges and vertices, in a tree; then
+    // 6 * 3 * 3 * 2 = 108 in a tree and 6 * 2 * 2 * 2 = 48 tested without one.
+    for (cells, n) in [(60usize, 1_000_000u64), (3, 200_000), (2, 200_000)] {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("wall");
+        mesh.push_box(Vec3::new(-1.3, -0.7, -2.1), Vec3::new(2.9, 1.7, 0.9), cells, s);
+        let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+        let grid = cells as f32;
+        let rays: Vec<Ray> = (0..n)
+            .map(|k| {
+                let mut r = stream(99, 2, k);
+                let o = Vec3::new(-1.2, -0.6, -2.0)
+                    + Vec3::new(uniform(&mut r) * 4.0, uniform(&mut r) * 2.2, uniform(&mut r) * 2.8);
+                // Half the rays aim exactly at vertices and edges of the subdivision grid.
+                let d = if k % 2 == 0 {
+                    uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)))
+                } else {
+                    let i = (uniform(&mut r) * (grid + 1.0)).floor() / grid;
+                    let j = (uniform(&mut r) * (grid + 1.0)).floor() / grid;
+                    (Vec3::new(-1.3 + 4.2 * i, -0.7 + 2.4 * j, 0.9) - o).normalize()
+                };
+                Ray::new(o, d)
+            })
+            .collect();
+        let hits = accel.closest_triangles(&rays);
+        let misses = hits.iter().filter(|h| h.is_none()).count();
+        assert_eq!(misses, 0, "{misses} of {n} rays escaped the closed box of {cells}x{cells} cells a face");
+    }
 }
 
 #[test]
 fn secondary_rays_never_rehit_their_own_surface() {
-    let mut mesh = TriangleMesh::default();
-    let s = mesh.surface_id("wall");
-    // A large room far from the origin, where float spacing is coarse.
-    mesh.push_box(Vec3::new(1000.0, 2000.0, 0.0), Vec3::new(1050.0, 2040.0, 12.0), 8, s);
-    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-    let centre = Vec3::new(1025.0, 2020.0, 6.0);
-    let mut rehits = 0;
-    for k in 0..100_000u64 {
-        let mut r = stream(5, 3, k);
-        let first = Ray::new(centre, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))));
-        let hit = accel.closest_hit(&first).expect("inside a closed room");
-        // Leave the surface into the room in a random direction of the inner hemisphere.
-        let n_in = hit.facing_normal();
-        let mut d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
-        if d.dot(n_in) < 0.0 {
-            d = -d;
+    // A large room far from the origin, where float spacing is coarse: 768 triangles in a
+    // tree, and 48 tested without one.
+    for cells in [8, 2] {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("wall");
+        mesh.push_box(Vec3::new(1000.0, 2000.0, 0.0), Vec3::new(1050.0, 2040.0, 12.0), cells, s);
+        let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+        let centre = Vec3::new(1025.0, 2020.0, 6.0);
+        let mut rehits = 0;
+        for k in 0..100_000u64 {
+            let mut r = stream(5, 3, k);
+            let first = Ray::new(centre, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))));
+            let hit = accel.closest_hit(&first).expect("inside a closed room");
+            // Leave the surface into the room in a random direction of the inner hemisphere.
+            let n_in = hit.facing_normal();
+            let mut d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+            if d.dot(n_in) < 0.0 {
+                d = -d;
+            }
+            let second = Ray::spawn(hit.point, hit.normal, d);
+            let next = accel.closest_hit(&second).expect("still inside");
+            // Re-hitting the same plane (the walls are planar) is a self-intersection.
+            let same_plane =
+                (next.point - hit.point).dot(hit.normal).abs() < 1e-3 && next.normal.dot(hit.normal) > 0.999;
+            if next.primitive == hit.primitive || same_plane {
+                eprintln!("ray {k}: left {:?} at {}, came back at t = {}", hit.primitive, hit.point, next.t);
+                rehits += 1;
+            }
+            // A grazing shadow ray back to the room centre is never blocked by its own surface.
+            assert!(!accel.occluded(&Ray::spawn_to(hit.point, hit.normal, centre)));
         }
-        let second = Ray::spawn(hit.point, hit.normal, d);
-        let next = accel.closest_hit(&second).expect("still inside");
-        // Re-hitting the same plane (the walls are planar) is a self-intersection.
-        let same_plane =
-            (next.point - hit.point).dot(hit.normal).abs() < 1e-3 && next.normal.dot(hit.normal) > 0.999;
-        if next.primitive == hit.primitive || same_plane {
-            eprintln!("ray {k}: left {:?} at {}, came back at t = {}", hit.primitive, hit.point, next.t);
-            rehits += 1;
-        }
-        // A grazing shadow ray back to the room centre is never blocked by its own surface.
-        assert!(!accel.occluded(&Ray::spawn_to(hit.point, hit.normal, centre)));
+        assert_eq!(rehits, 0, "{cells}x{cells} cells a face");
     }
-    assert_eq!(rehits, 0);
 }
 
 #[test]

@@ -20,6 +20,7 @@ use rayon::prelude::*;
 
 mod collapse;
 
+use super::flat::{FLAT_LIMIT, FlatRay, FlatTriangles};
 use super::hit::{Hit, PrimitiveKind};
 use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
@@ -94,6 +95,9 @@ pub struct MeshBvh {
     mesh_index: Vec<u32>,
     /// Surface id of each entry of `tris`.
     surface: Vec<u32>,
+    /// Small meshes: all triangles in blocks, tested without the tree (`nodes` is empty and
+    /// `leaves` holds one triangle a leaf, in mesh order).
+    flat: Option<FlatTriangles>,
 }
 
 /// Stage times of a build, printed to stderr when this variable is set.
@@ -101,15 +105,35 @@ const BUILD_TIMES_VARIABLE: &str = "PROPSIM_BUILD_TIMES";
 
 impl MeshBvh {
     pub fn build(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
+        if mesh.triangle_count() <= FLAT_LIMIT {
+            return Self::build_flat(mesh);
+        }
+        Self::build_tree(mesh, quality)
+    }
+
+    /// Every triangle tested by [`FlatTriangles`], without a tree (also the empty mesh).
+    fn build_flat(mesh: &TriangleMesh) -> Self {
+        let corners: Vec<[Vec3; 3]> = (0..mesh.triangle_count()).map(|i| mesh.corners(i)).collect();
+        let flat = FlatTriangles::new(&corners);
+        // Empty lanes' slots point at triangle 0; their lanes are never hit.
+        let mesh_index: Vec<u32> = flat.slots().iter().map(|s| s.unwrap_or(0)).collect();
+        let n = mesh_index.len();
+        let singles: Vec<(u32, u32)> = (0..n as u32).map(|i| (i, 1)).collect();
+        Self {
+            nodes: Vec::new(),
+            traverser: Traverser::new::<CwBvhNode>(&[]),
+            leaves: LeafTriangles::new(n, &singles, |slot| corners[mesh_index[slot] as usize]),
+            surface: mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect(),
+            mesh_index,
+            flat: Some(flat),
+        }
+    }
+
+    /// The CWBVH over the mesh's triangles, whatever their count.
+    pub fn build_tree(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
         let n = mesh.triangle_count();
         if n == 0 {
-            return Self {
-                nodes: Vec::new(),
-                traverser: Traverser::new::<CwBvhNode>(&[]),
-                leaves: LeafTriangles::default(),
-                mesh_index: Vec::new(),
-                surface: Vec::new(),
-            };
+            return Self::build_flat(mesh);
         }
         let verbose = std::env::var_os(BUILD_TIMES_VARIABLE).is_some();
         let mut clock = std::time::Instant::now();
@@ -148,13 +172,14 @@ impl MeshBvh {
         stage("leaves");
         let traverser = Traverser::new(&nodes);
         stage("traverser");
-        Self { nodes, traverser, leaves, mesh_index, surface }
+        Self { nodes, traverser, leaves, mesh_index, surface, flat: None }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
     pub fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<CwBvhNode>()
             + self.leaves.memory_bytes()
+            + self.flat.as_ref().map_or(0, FlatTriangles::memory_bytes)
             + self.mesh_index.len() * 8
     }
 
@@ -174,6 +199,13 @@ impl MeshBvh {
     /// The closest hit as (leaf, lane, distance, barycentrics).
     #[inline]
     fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
+        if let Some(flat) = &self.flat {
+            let flat_ray = FlatRay::new(ray.origin, ray.dir);
+            return self
+                .traverser
+                .flat_closest(flat, &flat_ray, ray.t_min, ray.t_max)
+                .map(|(first, t, uv)| ClosestLane { first, count: 1, lane: 0, t, uv });
+        }
         let mut visitor = self.closest_visitor(ray);
         self.traverser.closest(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
         visitor.best
@@ -206,6 +238,10 @@ impl MeshBvh {
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if let Some(flat) = &self.flat {
+            let flat_ray = FlatRay::new(ray.origin, ray.dir);
+            return self.traverser.flat_any(flat, &flat_ray, ray.t_min, ray.t_max);
+        }
         let mut visitor = self.occlusion_visitor(ray);
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
@@ -258,7 +294,14 @@ impl MeshBvh {
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
-    pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
+        if let Some(flat) = &self.flat {
+            let flat_ray = FlatRay::new(ray.origin, ray.dir);
+            flat.for_each_hit(&flat_ray, ray.t_min, ray.t_max, |i, t, uv| {
+                f(self.make_hit((i, 1, 0), t, uv, ray))
+            });
+            return;
+        }
         let mut visitor =
             AllHits { mesh: self, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray, f };
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor);
@@ -579,6 +622,53 @@ mod tests {
             simd.traverser = variant.with_streams(true);
             compare(&reference, &simd);
         }
+    }
+
+    #[test]
+    fn small_meshes_without_a_tree_match_the_tree() {
+        // Random triangles in a closed, subdivided box: 40 + 24 = 64 triangles, the most
+        // tested without a tree; and 3 triangles, one partly filled block.
+        let mut mesh = random_triangles(6, 40, Vec3::splat(-20.0), 8.0);
+        let s = mesh.surface_id("a");
+        mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 1, s);
+        mesh.push_box(Vec3::new(-3.0, -2.0, -1.0), Vec3::new(2.0, 1.0, 4.0), 1, s);
+        assert_eq!(mesh.triangle_count(), FLAT_LIMIT);
+        for mesh in [mesh, random_triangles(7, 3, Vec3::splat(-20.0), 30.0)] {
+            let tree = MeshBvh::build_tree(&mesh, BuildQuality::default());
+            let mut flat = MeshBvh::build(&mesh, BuildQuality::default());
+            assert!(flat.flat.is_some() && tree.flat.is_none());
+            for variant in Traverser::all_available(&flat.nodes) {
+                flat.traverser = variant;
+                compare(&tree, &flat);
+                // Rays at points just inside every corner and edge midpoint, on or near the
+                // blocks' boxes.
+                let mut r = stream(6, 9, 0);
+                let mut blocked = 0;
+                for i in 0..mesh.triangle_count() {
+                    let [a, b, c] = mesh.corners(i);
+                    let at = |u: f32, v: f32| a * (1.0 - u - v) + b * u + c * v;
+                    let (e, h) = (1.0e-5, 0.5 - 1.0e-5);
+                    for target in
+                        [at(e, e), at(1.0 - 2.0 * e, e), at(e, 1.0 - 2.0 * e), at(h, e), at(e, h), at(h, h)]
+                    {
+                        let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 - 20.0;
+                        let ray = Ray::new(o, (target - o).normalize());
+                        assert_eq!(
+                            flat.closest_triangle(&ray).map(|h| h.1),
+                            tree.closest_triangle(&ray).map(|h| h.1)
+                        );
+                        let segment = Ray::segment(o, ray.dir, (target - o).length() * 1.001);
+                        assert_eq!(flat.occluded(&segment), tree.occluded(&segment), "triangle {i}");
+                        blocked += usize::from(tree.occluded(&segment));
+                    }
+                }
+                assert!(blocked > 6 * mesh.triangle_count() * 9 / 10, "{blocked} blocked");
+            }
+        }
+        // No triangles at all.
+        let empty = MeshBvh::build(&TriangleMesh::default(), BuildQuality::default());
+        let ray = Ray::new(Vec3::ZERO, Vec3::X);
+        assert!(empty.closest_hit(&ray).is_none() && !empty.occluded(&ray));
     }
 
     #[test]

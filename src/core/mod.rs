@@ -3,6 +3,7 @@
 
 pub mod accel;
 pub mod fixed;
+pub mod flat;
 pub mod hit;
 pub mod launcher;
 pub mod leaf;

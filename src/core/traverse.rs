@@ -16,7 +16,8 @@
 
 use std::mem::{MaybeUninit, offset_of};
 
-use glam::{Vec3, Vec3A};
+use super::flat::{FlatRay, FlatTriangles};
+use glam::{Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
 
 /// Stack entries held on the thread's stack; deeper trees use a heap stack.
@@ -593,6 +594,36 @@ impl Traverser {
             // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
             Isa::Avx2 => unsafe { any_stream_avx2(nodes, count, start, finish, stacks) },
         })
+    }
+}
+
+impl Traverser {
+    /// [`FlatTriangles::closest`], 8 lanes wide where the CPU has AVX.
+    #[inline]
+    pub fn flat_closest(
+        &self,
+        flat: &FlatTriangles,
+        ray: &FlatRay,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(u32, f32, Vec2)> {
+        match self.isa {
+            Isa::Scalar => flat.closest(ray, t_min, t_max),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` and `Isa::Avx2` are only chosen when the CPU has AVX.
+            Isa::Avx | Isa::Avx2 => unsafe { super::flat::avx::closest(flat, ray, t_min, t_max) },
+        }
+    }
+
+    /// [`FlatTriangles::any`], 8 lanes wide where the CPU has AVX.
+    #[inline]
+    pub fn flat_any(&self, flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
+        match self.isa {
+            Isa::Scalar => flat.any(ray, t_min, t_max),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` and `Isa::Avx2` are only chosen when the CPU has AVX.
+            Isa::Avx | Isa::Avx2 => unsafe { super::flat::avx::any(flat, ray, t_min, t_max) },
+        }
     }
 }
 
