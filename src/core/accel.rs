@@ -626,9 +626,9 @@ mod tests {
 
     #[test]
     fn small_meshes_without_a_tree_match_the_tree() {
-        // Random triangles in a closed, subdivided box: 40 + 24 = 64 triangles, the most
-        // tested without a tree; and 3 triangles, one partly filled block.
-        let mut mesh = random_triangles(6, 40, Vec3::splat(-20.0), 8.0);
+        // Random triangles and two boxes: 72 + 24 = 96 triangles, the most tested without a
+        // tree; and 3 triangles, one partly filled block.
+        let mut mesh = random_triangles(6, 72, Vec3::splat(-20.0), 8.0);
         let s = mesh.surface_id("a");
         mesh.push_box(Vec3::splat(-25.0), Vec3::splat(25.0), 1, s);
         mesh.push_box(Vec3::new(-3.0, -2.0, -1.0), Vec3::new(2.0, 1.0, 4.0), 1, s);
