@@ -12,7 +12,7 @@
 //! CWBVH, which visits 1.6 nodes and 2 leaves of at most 3 triangles, sorting, pushing and
 //! mispredicting on the way.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec3A};
 
 use super::triangle::RayShear;
 
@@ -77,10 +77,12 @@ pub struct FlatRay {
     inv_dir: [f32; 3],
 }
 
-/// `1/x` without infinities (as the tree's node test), so slab products stay finite.
+/// `1/x` without infinities, lane by lane and without branches: the tree's `safe_inverse`,
+/// so slab products stay finite.
 #[inline(always)]
-fn safe_inverse(x: f32) -> f32 {
-    if x.abs() <= f32::EPSILON { x.signum() / f32::EPSILON } else { 1.0 / x }
+fn safe_inverse(x: Vec3A) -> Vec3A {
+    let tiny = x.abs().cmple(Vec3A::splat(f32::EPSILON));
+    Vec3A::select(tiny, x.signum() / f32::EPSILON, Vec3A::ONE / x)
 }
 
 impl FlatRay {
@@ -88,13 +90,13 @@ impl FlatRay {
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let s = RayShear::new(origin, dir);
         // +0.0 turns -0.0 into +0.0 before the inverse.
-        let d = dir + Vec3::ZERO;
+        let d = Vec3A::from(dir) + Vec3A::ZERO;
         Self {
             origin: [s.kx, s.ky, s.kz].map(|k| s.origin[k]),
             shear: [s.sx, s.sy, s.sz],
             axis: [s.kx.min(2), s.ky.min(2), s.kz.min(2)],
             world_origin: origin.to_array(),
-            inv_dir: d.to_array().map(safe_inverse),
+            inv_dir: safe_inverse(d).to_array(),
         }
     }
 }
