@@ -96,7 +96,7 @@ pub struct MeshBvh {
     /// Surface id of each entry of `tris`.
     surface: Vec<u32>,
     /// Small meshes: all triangles in blocks, tested without the tree (`nodes` is empty and
-    /// `leaves` holds one triangle a leaf, in mesh order).
+    /// `leaves` holds one triangle a leaf, in the blocks' slot order).
     flat: Option<FlatTriangles>,
 }
 
@@ -129,7 +129,8 @@ impl MeshBvh {
         }
     }
 
-    /// The CWBVH over the mesh's triangles, whatever their count.
+    /// The CWBVH over the mesh's triangles, whatever their count (the empty mesh gets the
+    /// empty flat set).
     pub fn build_tree(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
         let n = mesh.triangle_count();
         if n == 0 {

@@ -1,16 +1,16 @@
 //! Small meshes without a tree: triangles in blocks of 8, tested 8 at a time.
 //!
-//! Triangles are grouped into at most 8 spatially compact blocks, each stored
+//! Triangles are grouped into at most 16 spatially compact blocks, each stored
 //! coordinate-major (nine runs of 8 floats: `v0.x` of the 8 triangles, `v0.y`, ..., `v2.z`)
-//! with a bounding box. A query tests the 8 block boxes at once, then the blocks it enters,
+//! with a bounding box. A query tests the block boxes 8 at a time, then the blocks it enters,
 //! nearest first, each with the watertight test of [`super::triangle`] on all 8 lanes: the
 //! very same operations in the same order (no fused multiply-add), so it finds the hits a
 //! tree would, bit for bit. In effect a one-node wide BVH with 8-triangle leaves.
 //!
 //! The lane loops here are the portable reference; [`avx`] does each step in one 8-wide
-//! instruction. On the 36-triangle Cornell box this takes about half the instructions of the
-//! CWBVH, which visits 1.6 nodes and 2 leaves of at most 3 triangles, sorting, pushing and
-//! mispredicting on the way.
+//! instruction. On the 36-triangle Cornell box (callgrind, `propsim render`) a closest hit
+//! takes 349 instructions against 590 for the CWBVH, which visits 1.6 nodes and 2 leaves of
+//! at most 3 triangles, sorting and pushing on the way, and a shadow ray 214 against 737.
 
 use glam::{Vec2, Vec3, Vec3A};
 
@@ -50,7 +50,7 @@ struct Boxes {
     b: [Lanes; 6],
 }
 
-/// A small mesh's triangles in at most 8 blocks of [`LANES`]. A triangle's slot is
+/// A small mesh's triangles in at most 16 blocks of [`LANES`]. A triangle's slot is
 /// `8 * block + lane`; [`FlatTriangles::slots`] maps slots back to input order.
 #[derive(Clone, Debug, Default)]
 pub struct FlatTriangles {
