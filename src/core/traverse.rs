@@ -394,9 +394,10 @@ pub struct Traverser {
 
 /// Nodes (80 B each, about 10 triangles a node) from which batch queries trace streams. A
 /// smaller tree stays in the cache, where there is no memory latency to hide and a stream's
-/// bookkeeping only costs. Measured on generated terrains (2 threads, single rays vs
-/// streams, Mrays/s closest hit): a tree over the 36-triangle Cornell box 27.9 vs 22.6; 30k triangles
-/// 9.35 vs 9.16 incoherent and 24.0 vs 19.7 coherent; 100k triangles 5.2 vs 7.1 incoherent.
+/// bookkeeping only costs. Measured (2 threads, single rays vs streams, Mrays/s closest
+/// hit): a tree over the 36-triangle Cornell box 27.9 vs 22.6; generated terrains of 30k
+/// triangles 9.35 vs 9.16 incoherent and 24.0 vs 19.7 coherent, of 100k triangles 5.2 vs
+/// 7.1 incoherent.
 pub const STREAM_MIN_NODES: usize = 1 << 13;
 
 /// What a closest-hit traversal does at the leaves.
