@@ -92,7 +92,7 @@ impl FlatRay {
         // +0.0 turns -0.0 into +0.0 before the inverse.
         let d = Vec3A::from(dir) + Vec3A::ZERO;
         Self {
-            origin: [s.kx, s.ky, s.kz].map(|k| s.origin[k]),
+            origin: [s.kx, s.ky, s.kz].map(|k| origin.to_array()[k]),
             shear: [s.sx, s.sy, s.sz],
             axis: [s.kx.min(2), s.ky.min(2), s.kz.min(2)],
             world_origin: origin.to_array(),

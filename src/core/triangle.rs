@@ -32,18 +32,14 @@ impl RayShear {
         };
         let mut kx = (kz + 1) % 3;
         let mut ky = (kx + 1) % 3;
-        if dir[kz] < 0.0 {
+        // An array indexed at run time is a load; a `Vec3` is a chain of selects. Measured:
+        // 3 % fewer instructions and 4 % more samples/s in `propsim render`, the 1M-triangle
+        // tree within noise (-2 % to +1 %).
+        let d = dir.to_array();
+        if d[kz] < 0.0 {
             std::mem::swap(&mut kx, &mut ky);
         }
-        Self {
-            origin: origin.into(),
-            kx,
-            ky,
-            kz,
-            sx: dir[kx] / dir[kz],
-            sy: dir[ky] / dir[kz],
-            sz: 1.0 / dir[kz],
-        }
+        Self { origin: origin.into(), kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
     }
 }
 
