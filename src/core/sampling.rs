@@ -36,14 +36,12 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
         return Vec2::ZERO;
     }
     // The angle is pi/4 times a ratio in [-1, 1], or pi/2 minus that, whose cosine and sine
-    // are the sine and cosine of the small angle.
-    if o.x.abs() > o.y.abs() {
-        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.y / o.x));
-        o.x * Vec2::new(cos, sin)
-    } else {
-        let (sin, cos) = sin_cos_quarter((PI / 4.0) * (o.x / o.y));
-        o.y * Vec2::new(sin, cos)
-    }
+    // are the sine and cosine of the small angle. Selects, not branches: which case applies
+    // is a coin toss per sample.
+    let x_major = o.x.abs() > o.y.abs();
+    let (num, den) = if x_major { (o.y, o.x) } else { (o.x, o.y) };
+    let (sin, cos) = sin_cos_quarter((PI / 4.0) * (num / den));
+    den * if x_major { Vec2::new(cos, sin) } else { Vec2::new(sin, cos) }
 }
 
 /// `(sin x, cos x)` for `|x| <= pi/4`: Taylor polynomials to degree 9 and 10, whose
