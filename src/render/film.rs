@@ -83,12 +83,20 @@ impl Film {
                     .with_context(|| format!("{}: cannot write PNG", path.display()))
             }
             ImageFormat::Exr => {
+                use exr::prelude::WritableImage as _;
                 let w = self.width as usize;
-                exr::prelude::write_rgb_file(path, w, self.height as usize, |x, y| {
-                    let p = self.pixels[y * w + x];
-                    (p.x, p.y, p.z)
-                })
-                .with_context(|| format!("{}: cannot write EXR", path.display()))
+                let channels =
+                    exr::prelude::SpecificChannels::rgb(|exr::math::Vec2(x, y): exr::math::Vec2<usize>| {
+                        let p = self.pixels[y * w + x];
+                        (p.x, p.y, p.z)
+                    });
+                // Chunks compressed one after the other: in parallel they land in the file in
+                // the order they finish, and the same image gives different bytes.
+                exr::prelude::Image::from_channels((w, self.height as usize), channels)
+                    .write()
+                    .non_parallel()
+                    .to_file(path)
+                    .with_context(|| format!("{}: cannot write EXR", path.display()))
             }
         }
     }
@@ -125,6 +133,18 @@ mod tests {
         )
         .unwrap();
         assert_eq!(exr.layer_data.channel_data.pixels[1], (0.5, 2.0, 0.0));
+        // The same image gives the same bytes: an image of many compressed chunks, of uneven
+        // cost (smooth rows and noisy rows), written several times.
+        let mut big = Film::new(512, 512);
+        let mut r = crate::core::rng::stream(3, 0, 0);
+        for (i, p) in big.pixels.iter_mut().enumerate() {
+            let noisy = (i / 512) % 64 < 24;
+            *p = if noisy { Vec3::splat(crate::core::rng::uniform(&mut r)) } else { Vec3::splat(0.25) };
+        }
+        let path = |k: usize| dir.path().join(format!("b{k}.exr"));
+        (0..6).for_each(|k| big.write(&path(k)).unwrap());
+        let first = std::fs::read(path(0)).unwrap();
+        assert!((1..6).all(|k| std::fs::read(path(k)).unwrap() == first), "writes of one image differ");
         assert!(f.write(&dir.path().join("a.jpg")).is_err());
         assert!(f.write(&dir.path().join("a")).is_err());
     }
