@@ -7,8 +7,8 @@ apt-get install libllvm19 and DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLL
     for s in 5 6 7; do propsim render -o ours64_$s.exr --spp 64 --seed $s; done
     python3 rooms/tools/mitsuba_cornell.py rooms/cornell_box_classic ours_ref.exr ours64_5.exr ours64_6.exr ours64_7.exr
 
-It times Mitsuba's 64-spp render (median of 5) and prints, for each of Mitsuba's samplers and
-for propsim, the RMSE at 64 spp (pooled over the seeds) against the mean of the two
+It times Mitsuba's 64-spp render (median of 5, for each sampler) and prints, for each of
+Mitsuba's samplers and for propsim, the RMSE at 64 spp (pooled over the seeds) against the mean of the two
 references (propsim's and a 1024-spp Mitsuba render).
 
 Same geometry (the OBJ split per usemtl), same colours and emitter, two-sided diffuse (propsim's
@@ -69,8 +69,18 @@ pooled = lambda imgs: float(np.sqrt(np.mean([rmse(a, comb) ** 2 for a in imgs]))
 print("reference means: mitsuba", ref.mean((0, 1)), "propsim", theirs_ref.mean((0, 1)),
       "RMSE between them", rmse(ref, theirs_ref))
 print(f"mitsuba 64 spp: {t:.3f} s median, {256 * 256 * 64 / t / 1e6:.2f} M samples/s")
+def speed(sc):
+    """Median of 5 timed 64-spp renders of scene `sc`, in M samples/s."""
+    render(4, 0, sc)  # JIT warm-up
+    times = []
+    for k in range(5):
+        t = time.time()
+        render(64, 7 + k, sc)
+        times.append(time.time() - t)
+    return 256 * 256 * 64 / sorted(times)[2] / 1e6
 for name in ["independent", "stratified", "multijitter", "ldsampler"]:
     sc = load(name)
-    print(f"mitsuba {name:12s} 64 spp RMSE {pooled([render(64, 7 + k, sc) for k in range(3)]):.5f}")
+    print(f"mitsuba {name:12s} 64 spp RMSE {pooled([render(64, 7 + k, sc) for k in range(3)]):.5f}, "
+          f"{speed(sc):.2f} M samples/s")
 ours = [np.array(mi.Bitmap(f))[..., :3] for f in sys.argv[3:]]
 print(f"propsim              64 spp RMSE {pooled(ours):.5f}")
