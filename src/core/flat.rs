@@ -14,6 +14,7 @@
 
 use glam::{Vec2, Vec3, Vec3A};
 
+use super::traverse::nearest;
 use super::triangle::RayShear;
 
 #[cfg(target_arch = "x86_64")]
@@ -225,15 +226,7 @@ fn closest_with<K: Kernel>(
     let (mut blocks, near) = entered::<K>(flat, ray, t_min, t_max);
     let mut best = None;
     while blocks != 0 {
-        let mut b = blocks.trailing_zeros() as usize;
-        let mut rest = blocks & (blocks - 1);
-        while rest != 0 {
-            let s = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
-            if near[s] < near[b] {
-                b = s;
-            }
-        }
+        let b = nearest(blocks, &near);
         if near[b] > t_max {
             break;
         }

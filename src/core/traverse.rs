@@ -858,6 +858,21 @@ fn any_step<T: NodeTest, N: WideBvhNode>(
     }
 }
 
+/// The set bit of `mask` (not zero) with the smallest `distance`; the lowest bit on ties.
+#[inline(always)]
+pub(crate) fn nearest<const N: usize>(mask: u32, distance: &[f32; N]) -> usize {
+    let mut best = mask.trailing_zeros() as usize;
+    let mut rest = mask & (mask - 1);
+    while rest != 0 {
+        let s = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        if distance[s] < distance[best] {
+            best = s;
+        }
+    }
+    best
+}
+
 #[inline(always)]
 fn closest_loop<T: NodeTest, N: WideBvhNode>(
     nodes: &[N],
@@ -876,15 +891,7 @@ fn closest_loop<T: NodeTest, N: WideBvhNode>(
         let entry_t_max = t_max;
         while leaves != 0 {
             // Nearest leaf first, so that a hit culls the farther ones.
-            let mut slot = leaves.trailing_zeros() as usize;
-            let mut rest = leaves & (leaves - 1);
-            while rest != 0 {
-                let s = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                if tnear[s] < tnear[slot] {
-                    slot = s;
-                }
-            }
+            let slot = nearest(leaves, &tnear);
             leaves &= !(1 << slot);
             // A leaf entered beyond a hit found in a sibling leaf cannot hold a closer one.
             if tnear[slot] <= t_max {
