@@ -516,7 +516,7 @@ impl Accel {
 
     /// True when anything blocks the segment `(t_min, t_max]`: the cheap shadow-ray query.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.mesh.occluded(ray) || self.spheres.occluded(ray)
+        self.mesh.occluded(ray) || !self.spheres.is_empty() && self.spheres.occluded(ray)
     }
 
     /// Closest hits of many rays in parallel; the result is in input order whatever the

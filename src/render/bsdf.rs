@@ -150,6 +150,13 @@ impl Bsdf {
         }
     }
 
+    /// True when [`Bsdf::sample`] picks one of several lobes with its number `uc` (glass:
+    /// reflection or refraction); the other BSDFs ignore it, so the path loop draws none.
+    #[inline]
+    pub fn has_lobes(&self) -> bool {
+        matches!(self, Bsdf::Dielectric { .. })
+    }
+
     /// The BSDF value for the pair (non-delta lobes only; zero for Dirac lobes).
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
         if wo.z * wi.z <= 0.0 {
@@ -269,6 +276,23 @@ mod tests {
             Bsdf::Dielectric { eta: 1.5, tint: Vec3::ONE },
             Bsdf::Dielectric { eta: 1.33, tint: Vec3::ONE },
         ]
+    }
+
+    #[test]
+    fn only_bsdfs_with_lobes_read_the_lobe_number() {
+        // The path loop draws `uc` only for `has_lobes`: the others must not depend on it, and
+        // glass must (else the flag would be stale).
+        let mut rng = stream(12, 0, 0);
+        for bsdf in all_bsdfs() {
+            let mut depends = false;
+            for _ in 0..200 {
+                let wo = uniform_sphere(u2(&mut rng));
+                let u = u2(&mut rng);
+                let [a, b] = [0.05, 0.95].map(|uc| bsdf.sample(wo, u, uc).map(|s| (s.wi, s.pdf)));
+                depends |= a != b;
+            }
+            assert_eq!(depends, bsdf.has_lobes(), "{bsdf:?}");
+        }
     }
 
     /// Directional albedo `integral f |cos| dwi` by importance sampling, for several `wo`

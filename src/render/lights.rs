@@ -15,6 +15,9 @@ use crate::core::{Sphere, TriangleMesh};
 /// Marks a primitive that is not a light in the primitive-to-light maps.
 const NOT_A_LIGHT: u32 = u32::MAX;
 
+/// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// One light.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
@@ -177,6 +180,10 @@ pub struct Lights {
     pmf: Vec<f32>,
     /// Running sum of `pmf`.
     cdf: Vec<f32>,
+    /// Running sum of `pmf` before each light (`cdf` shifted by one, from 0).
+    cdf_below: Vec<f32>,
+    /// `1 / pmf` (a multiply is quicker than a divide on this chain).
+    inv_pmf: Vec<f32>,
     /// Light index of each mesh triangle, or `NOT_A_LIGHT`.
     triangle_light: Vec<u32>,
     /// Light index of each sphere, or `NOT_A_LIGHT`.
@@ -220,14 +227,16 @@ impl Lights {
             vec![1.0 / lights.len().max(1) as f32; lights.len()]
         };
         let mut acc = 0.0;
-        let cdf = pmf
+        let cdf: Vec<f32> = pmf
             .iter()
             .map(|p| {
                 acc += p;
                 acc
             })
             .collect();
-        Self { lights, pmf, cdf, triangle_light, sphere_light }
+        let cdf_below = std::iter::once(0.0).chain(cdf.iter().copied()).take(lights.len()).collect();
+        let inv_pmf = pmf.iter().map(|p| if *p > 0.0 { 1.0 / p } else { 0.0 }).collect();
+        Self { lights, pmf, cdf, cdf_below, inv_pmf, triangle_light, sphere_light }
     }
 
     pub fn is_empty(&self) -> bool {
@@ -242,6 +251,17 @@ impl Lights {
         }
         let i = self.cdf.partition_point(|&c| c <= u).min(self.lights.len() - 1);
         Some((i, self.pmf[i]))
+    }
+
+    /// Chooses a light as [`Lights::choose`] does and returns `u` stretched back to [0, 1)
+    /// within the chosen light's interval, so one stratified number picks the light and
+    /// places the point on it (pbrt-v4 sec. 2.2.2's sample reuse): index, probability, `u`.
+    #[inline]
+    pub fn choose_reusing(&self, u: f32) -> Option<(usize, f32, f32)> {
+        let (i, pmf) = self.choose(u)?;
+        // A load, not a branch on `i == 0`: the choice is a coin toss per sample.
+        let below = self.cdf_below[i];
+        Some((i, pmf, ((u - below) * self.inv_pmf[i]).clamp(0.0, ONE_MINUS_EPSILON)))
     }
 
     /// Probability that [`Lights::choose`] picks light `i`.
@@ -311,5 +331,29 @@ mod tests {
         let f = (1.0 / (2.0 * PI)) * 2.0 * (1.0 / 2f32.sqrt()) * (1.0 / 2f32.sqrt()).atan();
         let expect = PI * 4.0 * f;
         assert!((e / n as f32 - expect).abs() < 0.01 * expect, "{} vs {expect}", e / n as f32);
+    }
+
+    #[test]
+    fn reused_choice_numbers_pick_by_power_and_stay_uniform() {
+        // Three point lights of powers 1 : 2 : 5; 8,000 evenly spaced numbers choose among them.
+        let points = [1.0f32, 2.0, 5.0].map(|w| (Vec3::ZERO, Vec3::splat(w)));
+        let lights = Lights::new(&points, &TriangleMesh::default(), &[], &[]);
+        let n = 8000;
+        let (mut count, mut sum, mut sum2) = ([0u32; 3], [0.0f64; 3], [0.0f64; 3]);
+        for k in 0..n {
+            let u = (k as f32 + 0.5) / n as f32;
+            let (i, pmf, v) = lights.choose_reusing(u).unwrap();
+            assert_eq!((i, pmf), lights.choose(u).unwrap());
+            assert!((0.0..1.0).contains(&v), "{v}");
+            count[i] += 1;
+            sum[i] += f64::from(v);
+            sum2[i] += f64::from(v) * f64::from(v);
+        }
+        for (i, share) in [1.0 / 8.0, 2.0 / 8.0, 5.0 / 8.0].into_iter().enumerate() {
+            let c = f64::from(count[i]);
+            assert!((c / f64::from(n) - share).abs() < 1e-3, "light {i}: {c}");
+            // Evenly spread over [0, 1): mean 1/2, mean square 1/3.
+            assert!((sum[i] / c - 0.5).abs() < 1e-3 && (sum2[i] / c - 1.0 / 3.0).abs() < 1e-3, "light {i}");
+        }
     }
 }

@@ -21,6 +21,7 @@ pub mod bsdf;
 pub mod camera;
 pub mod distributed;
 pub mod film;
+pub mod lanes;
 pub mod lights;
 pub mod path;
 pub mod raycast;
@@ -397,11 +398,11 @@ fn render_pixel(
     let (w, h) = (s.width as f32, s.height as f32);
     let mut sum = Vec3::ZERO;
     for k in 0..s.spp {
-        let mut sampler = Sampler::new(pixel_seed, k, &mut rng);
-        let (o, lens) =
-            if jitter { (sampler.get_2d(), sampler.get_2d()) } else { (Vec2::splat(0.5), Vec2::ZERO) };
+        let has_lens = camera.aperture_radius_m > 0.0;
+        let mut sampler = Sampler::new(pixel_seed, k, has_lens, &mut rng);
+        let o = if jitter { sampler.get_2d() } else { Vec2::splat(0.5) };
         let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
-        let lens = if camera.aperture_radius_m > 0.0 { lens } else { Vec2::ZERO };
+        let lens = if jitter && has_lens { sampler.get_2d() } else { Vec2::ZERO };
         let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, &mut sampler, rays);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
@@ -456,17 +457,23 @@ pub fn render_on(
         .collect();
     let mine: Vec<(u32, u32)> =
         tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let use_lanes = lanes::applies(scene, settings) && std::env::var_os("PROPSIM_NO_LANES").is_none();
     let done: Vec<(Vec<Vec3>, u64)> = mine
         .par_iter()
         .map(|&(x0, y0)| {
             let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
             let mut rays = 0u64;
-            let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    px.push(render_pixel(scene, camera, settings, x, y, &mut rays));
+            let px = if use_lanes {
+                lanes::render_tile(scene, camera, settings, (x0, y0, x1, y1), &mut rays)
+            } else {
+                let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays));
+                    }
                 }
-            }
+                px
+            };
             progress(u64::from((x1 - x0) * (y1 - y0)));
             (px, rays)
         })

@@ -23,38 +23,60 @@ const SEQUENCE_LENGTH: u32 = 1 << 16;
 /// scrambled points per sample (about 5 % of the render time).
 const SOBOL_PAIRS: u32 = 4;
 
-/// The numbers of sample `index` of one pixel.
-pub struct Sampler<'r> {
+/// Where a sample stands: which pair comes next and the cached Sobol point. Kept apart from
+/// the random stream so that a path can be paused and resumed ([`super::lanes`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampleState {
     index: u32,
     pixel_seed: u32,
-    /// The next pair: 0 film, 1 lens, 2 + 2d light and 3 + 2d BSDF at bounce d.
+    /// The next pair: 0 film, then 1 lens when there is a lens, then the light and BSDF
+    /// pairs of each bounce.
     pair: u32,
+    /// The light pair of the first bounce: 2 with a lens, 1 without.
+    first_bounce: u32,
     /// The 4-D Sobol point holding pairs `2k` and `2k + 1`, and its `k`.
     point: Vec4,
     point_set: u32,
+}
+
+/// The numbers of sample `index` of one pixel.
+pub struct Sampler<'r> {
+    state: SampleState,
     rng: &'r mut Rng64,
 }
 
 impl<'r> Sampler<'r> {
     /// Sample `index` of the pixel whose scramble is `pixel_seed` (a hash of the seed and the
-    /// pixel) and whose random stream is `rng`. Starts at the film pair.
-    pub fn new(pixel_seed: u32, index: u32, rng: &'r mut Rng64) -> Self {
+    /// pixel) and whose random stream is `rng`; `lens` when the camera samples a lens.
+    /// Starts at the film pair.
+    pub fn new(pixel_seed: u32, index: u32, lens: bool, rng: &'r mut Rng64) -> Self {
         // Past 2^16 samples, start independent scrambles of the sequence.
         let pixel_seed = pixel_seed ^ (index / SEQUENCE_LENGTH).wrapping_mul(0x9e37_79b9);
-        Self {
+        let state = SampleState {
             index: index % SEQUENCE_LENGTH,
             pixel_seed,
             pair: 0,
+            first_bounce: if lens { 2 } else { 1 },
             point: Vec4::ZERO,
             point_set: u32::MAX,
-            rng,
-        }
+        };
+        Self { state, rng }
+    }
+
+    /// A sampler that goes on from `state` (taken by [`Sampler::state`]) with the same stream.
+    pub fn resume(state: SampleState, rng: &'r mut Rng64) -> Self {
+        Self { state, rng }
+    }
+
+    /// Where this sample stands, to [`Sampler::resume`] it later.
+    pub fn state(&self) -> SampleState {
+        self.state
     }
 
     /// Moves to the pairs of bounce `depth` (0 = the first surface vertex): the light pair,
     /// then the BSDF pair.
     pub fn start_bounce(&mut self, depth: u32) {
-        self.pair = 2 + 2 * depth;
+        self.state.pair = self.state.first_bounce + 2 * depth;
     }
 
     /// The next value in [0, 1) (independent).
@@ -64,22 +86,22 @@ impl<'r> Sampler<'r> {
 
     /// The next pair in [0, 1)^2.
     pub fn get_2d(&mut self) -> Vec2 {
-        let pair = self.pair;
-        self.pair += 1;
+        let pair = self.state.pair;
+        self.state.pair += 1;
         if pair >= SOBOL_PAIRS {
             return Vec2::new(uniform(self.rng), uniform(self.rng));
         }
         let set = pair / 2;
-        if set != self.point_set {
+        if set != self.state.point_set {
             // Distinct seeds give statistically independent scrambles (sobol_burley, "Seeding").
-            let seed = self.pixel_seed ^ set.wrapping_mul(0x85eb_ca6b).rotate_left(13);
-            self.point = Vec4::from_array(sobol_burley::sample_4d(self.index, 0, seed));
-            self.point_set = set;
+            let seed = self.state.pixel_seed ^ set.wrapping_mul(0x85eb_ca6b).rotate_left(13);
+            self.state.point = Vec4::from_array(sobol_burley::sample_4d(self.state.index, 0, seed));
+            self.state.point_set = set;
         }
         if pair.is_multiple_of(2) {
-            Vec2::new(self.point.x, self.point.y)
+            Vec2::new(self.state.point.x, self.state.point.y)
         } else {
-            Vec2::new(self.point.z, self.point.w)
+            Vec2::new(self.state.point.z, self.state.point.w)
         }
     }
 }
@@ -97,7 +119,7 @@ mod tests {
         for (bounce, skip) in [(None, 0), (Some(0), 0), (Some(0), 1)] {
             let mut cells = [0u32; 64];
             for i in 0..64 {
-                let mut s = Sampler::new(0xdead_beef, i, &mut rng);
+                let mut s = Sampler::new(0xdead_beef, i, true, &mut rng);
                 if let Some(d) = bounce {
                     s.start_bounce(d);
                 }
@@ -120,12 +142,12 @@ mod tests {
         for i in 0..n {
             // The first bounce's light pair against the film pair and another pixel's.
             let (x, z) = {
-                let mut a = Sampler::new(1, i, &mut rng);
+                let mut a = Sampler::new(1, i, true, &mut rng);
                 let z = a.get_2d().x;
                 a.start_bounce(0);
                 (a.get_2d().x, z)
             };
-            let mut b = Sampler::new(2, i, &mut rng);
+            let mut b = Sampler::new(2, i, true, &mut rng);
             b.start_bounce(0);
             let y = b.get_2d().x;
             mean += f64::from(x);
@@ -144,8 +166,8 @@ mod tests {
         let mut rng = stream(1, 2, 3);
         let (mut far, mut deep) = (0.0f64, 0.0f64);
         for i in 0..1000u32 {
-            far += f64::from(Sampler::new(7, SEQUENCE_LENGTH + i, &mut rng).get_2d().y);
-            let mut s = Sampler::new(7, i, &mut rng);
+            far += f64::from(Sampler::new(7, SEQUENCE_LENGTH + i, true, &mut rng).get_2d().y);
+            let mut s = Sampler::new(7, i, true, &mut rng);
             s.start_bounce(6);
             deep += f64::from(s.get_2d().x);
         }
