@@ -22,6 +22,8 @@ use super::{
     Bsdf, Camera, IntegratorKind, Light, PIXEL_DOMAIN, RenderScene, RenderSettings, power_heuristic,
 };
 use crate::core::Ray;
+use crate::core::flat::FlatRay;
+use crate::core::ray::offset_origins;
 use crate::core::rng::{Rng64, stream};
 use crate::core::sampling::sin_cos_quarter;
 
@@ -52,6 +54,8 @@ struct Lane {
     numbers: SampleState,
     sum: Vec3,
     ray: Ray,
+    /// `FlatRay::new` of `ray`, for small meshes.
+    flat_ray: FlatRay,
     l: Vec3,
     beta: Vec3,
     specular: bool,
@@ -86,15 +90,22 @@ struct Vertices {
 /// What the shading phase gives back.
 #[derive(Default)]
 struct Shaded {
-    /// Unoccluded direct light (`f |cos| Le w / pdf`) and the light point the shadow ray ends at.
+    /// Unoccluded direct light (`f |cos| Le w / pdf`), and the shadow ray: `Ray::spawn_to`
+    /// the light point, as origin, direction and length.
     direct: [Lanes; 3],
-    shadow: u32,
-    light_point: [Lanes; 3],
-    /// The sampled direction (world), its density, the new throughput, and whether it lives.
+    /// 1 where a shadow ray is traced, else 0.
+    shadow: Lanes,
+    shadow_origin: [Lanes; 3],
+    shadow_dir: [Lanes; 3],
+    shadow_t_max: Lanes,
+    /// The next ray (`Ray::spawn` along the sampled direction), the direction's density, the
+    /// new throughput, and whether the path lives.
+    origin: [Lanes; 3],
     dir: [Lanes; 3],
     pdf: Lanes,
     beta: [Lanes; 3],
-    alive: u32,
+    /// 1 where the path goes on, else 0.
+    alive: Lanes,
 }
 
 /// `f` of every lane. (A plain loop, which inlines and vectorises.)
@@ -105,16 +116,6 @@ fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
         *o = f(i);
     }
     out
-}
-
-/// Bit `i` set where `f(i)` holds.
-#[inline(always)]
-fn mask(f: impl Fn(usize) -> bool) -> u32 {
-    let mut m = 0;
-    for i in 0..N {
-        m |= u32::from(f(i)) << i;
-    }
-    m
 }
 
 /// A lane-wise vector: `f(k, i)` is component `k` of lane `i`.
@@ -181,13 +182,14 @@ fn shade(v: &Vertices) -> Shaded {
     let weight = lanes(|i| if lp2[i] == f32::INFINITY { 1.0 } else { weight[i] });
     let scale = lanes(|i| weight[i] / light_pdf[i]);
     let direct = vec3(|k, i| f[k][i] * v.light_le[k][i] * scale[i]);
-    // Light::sample's `None`, and `sample_direct`'s zero `f` or `Le`: no shadow ray.
-    let shadow = mask(|i| {
+    // Light::sample's `None`, and `sample_direct`'s zero `f` or `Le`: no shadow ray. (Flags
+    // are 1.0 or 0.0 lanes: selects the compiler vectorises, where bit masks would not.)
+    let le = &v.light_le;
+    let shadow = lanes(|i| {
         let sampled = !((cos_l[i] <= 0.0) | (d2[i] == 0.0));
-        let f_zero = (f[0][i] == 0.0) & (f[1][i] == 0.0) & (f[2][i] == 0.0);
-        let le = &v.light_le;
-        let le_zero = (le[0][i] == 0.0) & (le[1][i] == 0.0) & (le[2][i] == 0.0);
-        sampled & !(f_zero | le_zero)
+        let f_lit = (f[0][i] != 0.0) | (f[1][i] != 0.0) | (f[2][i] != 0.0);
+        let le_lit = (le[0][i] != 0.0) | (le[1][i] != 0.0) | (le[2][i] != 0.0);
+        if sampled & f_lit & le_lit { 1.0 } else { 0.0 }
     });
 
     // Bsdf::sample (Lambert): the concentric disk lifted to the cosine-weighted hemisphere.
@@ -214,14 +216,21 @@ fn shade(v: &Vertices) -> Shaded {
     // most 1; before it, a path ends when its throughput is zero.
     let larger = |a: f32, b: f32| if a > b { a } else { b }; // glam's max_element, NaNs included
     let q_max = lanes(|i| larger(beta[0][i], larger(beta[1][i], beta[2][i])).min(1.0));
-    let alive = mask(|i| {
+    let alive = lanes(|i| {
         let roulette = v.u_roulette[i] >= 0.0;
-        let zero = (beta[0][i] == 0.0) & (beta[1][i] == 0.0) & (beta[2][i] == 0.0);
+        let nonzero = (beta[0][i] != 0.0) | (beta[1][i] != 0.0) | (beta[2][i] != 0.0);
         let survives = !((q_max[i] <= 0.0) | (v.u_roulette[i] >= q_max[i]));
-        (pdf[i] > 0.0) & ((roulette & survives) | (!roulette & !zero))
+        let lives = (pdf[i] > 0.0) & if roulette { survives } else { nonzero };
+        if lives { 1.0 } else { 0.0 }
     });
     let beta = vec3(|k, i| if v.u_roulette[i] >= 0.0 { beta[k][i] / q_max[i] } else { beta[k][i] });
-    Shaded { direct, shadow, light_point: q, dir, pdf, beta, alive }
+    // Ray::spawn_to the light point (along `wi`, the same arithmetic) and Ray::spawn.
+    let shadow_origin = offset_origins(&v.point, &v.normal, &wi);
+    let rest = vec3(|k, i| q[k][i] - shadow_origin[k][i]);
+    let rest2 = dot([&rest[0], &rest[1], &rest[2]], [&rest[0], &rest[1], &rest[2]]);
+    let shadow_t_max = lanes(|i| rest2[i].sqrt() * (1.0 - 1.0e-5));
+    let origin = offset_origins(&v.point, &v.normal, &dir);
+    Shaded { direct, shadow, shadow_origin, shadow_dir: wi, shadow_t_max, origin, dir, pdf, beta, alive }
 }
 
 /// The pixels `x0..x1` x `y0..y1` in row order, as [`super::render_pixel`] gives them, bit for
@@ -253,6 +262,7 @@ pub fn render_tile(
             numbers: SampleState::default(),
             sum: Vec3::ZERO,
             ray: Ray::new(Vec3::ZERO, Vec3::Z),
+            flat_ray: FlatRay::new(Vec3::ZERO, Vec3::Z),
             l: Vec3::ZERO,
             beta: Vec3::ONE,
             specular: true,
@@ -268,14 +278,14 @@ pub fn render_tile(
         next += 1;
     }
     let mut v = Vertices::default();
-    let mut hits = [(Vec3::ZERO, Vec3::ZERO); N];
+    let mut hit_points = [Vec3::ZERO; N];
     while !active.is_empty() {
         // Phase 1: closest hits, emission, and the numbers and light of each live vertex.
         let mut live = [false; N];
         let mut finished = [false; N];
         for (i, lane) in active.iter_mut().enumerate() {
             *rays += 1;
-            let Some(hit) = scene.intersect(&lane.ray) else {
+            let Some(hit) = scene.intersect_prepared(&lane.ray, &lane.flat_ray) else {
                 lane.l += lane.beta * scene.background;
                 finished[i] = true;
                 continue;
@@ -328,34 +338,37 @@ pub fn render_tile(
                 v.beta[k][i] = lane.beta[k];
                 v.light_le[k][i] = le[k];
             }
-            hits[i] = (hit.point, hit.normal);
+            hit_points[i] = hit.point;
             live[i] = true;
         }
         // Phase 2: shading, eight lanes at once.
         let sh = if live.contains(&true) { shade(&v) } else { Shaded::default() };
         // Phase 3: shadow rays, the next rays, and lanes whose sample ends.
+        let shadow_rays = FlatRay::lanes(&sh.shadow_origin, &sh.shadow_dir);
+        let next_rays = FlatRay::lanes(&sh.origin, &sh.dir);
+        let at = |x: &[Lanes; 3], i: usize| Vec3::new(x[0][i], x[1][i], x[2][i]);
         for (i, lane) in active.iter_mut().enumerate() {
             if !live[i] {
                 continue;
             }
-            let (point, normal) = hits[i];
-            if sh.shadow & 1 << i != 0 {
+            if sh.shadow[i] != 0.0 {
                 *rays += 1;
-                let target = Vec3::new(sh.light_point[0][i], sh.light_point[1][i], sh.light_point[2][i]);
-                if !scene.accel.occluded(&Ray::spawn_to(point, normal, target)) {
+                let ray = Ray::segment(at(&sh.shadow_origin, i), at(&sh.shadow_dir, i), sh.shadow_t_max[i]);
+                if !scene.accel.mesh.occluded_prepared(&ray, &shadow_rays[i]) {
                     let direct = Vec3::new(sh.direct[0][i], sh.direct[1][i], sh.direct[2][i]);
                     lane.l += lane.beta * direct;
                 }
             }
-            if sh.alive & 1 << i == 0 {
+            if sh.alive[i] == 0.0 {
                 finished[i] = true;
                 continue;
             }
             lane.beta = Vec3::new(sh.beta[0][i], sh.beta[1][i], sh.beta[2][i]);
             lane.specular = false;
             lane.prev_pdf = sh.pdf[i];
-            lane.prev_point = point;
-            lane.ray = Ray::spawn(point, normal, Vec3::new(sh.dir[0][i], sh.dir[1][i], sh.dir[2][i]));
+            lane.prev_point = hit_points[i];
+            lane.ray = Ray::new(at(&sh.origin, i), at(&sh.dir, i));
+            lane.flat_ray = next_rays[i];
         }
         // Finished samples: add them up, start the pixel's next sample or the next pixel.
         let mut i = 0;
@@ -399,6 +412,7 @@ fn start_sample(lane: &mut Lane, camera: &Camera, s: &RenderSettings) {
     let lens = if has_lens { sampler.get_2d() } else { Vec2::ZERO };
     lane.numbers = sampler.state();
     lane.ray = camera.ray(film, lens);
+    lane.flat_ray = FlatRay::new(lane.ray.origin, lane.ray.dir);
     lane.l = Vec3::ZERO;
     lane.beta = Vec3::ONE;
     lane.specular = true;

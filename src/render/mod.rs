@@ -36,6 +36,7 @@ use rayon::prelude::*;
 
 use rand::RngCore;
 
+use crate::core::flat::FlatRay;
 use crate::core::rng::{Rng64, stream, uniform};
 use crate::core::sampling::orthonormal_basis;
 use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
@@ -255,7 +256,20 @@ impl<'a> RenderScene<'a> {
     /// The closest hit along `ray` (barycentrics are not computed: zero).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let mut best = self.accel.mesh.closest_triangle(ray).map(|(i, t)| {
+        self.hit_of(ray, self.accel.mesh.closest_triangle(ray))
+    }
+
+    /// [`RenderScene::intersect`] with the ray's [`FlatRay`] built beforehand (see
+    /// [`crate::core::MeshBvh::closest_triangle_prepared`]).
+    #[inline]
+    pub fn intersect_prepared(&self, ray: &Ray, flat_ray: &FlatRay) -> Option<Hit> {
+        self.hit_of(ray, self.accel.mesh.closest_triangle_prepared(ray, flat_ray))
+    }
+
+    /// The hit of `ray` given its closest triangle (mesh index, distance), spheres included.
+    #[inline(always)]
+    fn hit_of(&self, ray: &Ray, triangle: Option<(u32, f32)>) -> Option<Hit> {
+        let mut best = triangle.map(|(i, t)| {
             let (normal, surface) = self.triangles[i as usize];
             Hit {
                 t,
