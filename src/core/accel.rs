@@ -237,9 +237,9 @@ impl MeshBvh {
         self.closest_lane(ray).map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t))
     }
 
-    /// [`MeshBvh::closest_triangle`] with the ray's [`FlatRay`] built beforehand, as
-    /// [`FlatRay::lanes`] builds eight at once; it must be `FlatRay::new(ray.origin, ray.dir)`.
-    /// A mesh with a tree does not use it.
+    /// [`MeshBvh::closest_triangle`] with the ray's [`FlatRay`] built beforehand (it must be
+    /// `FlatRay::new(ray.origin, ray.dir)`), so that a caller can build it early, off the way
+    /// to the query. A mesh with a tree does not use it.
     #[inline]
     pub fn closest_triangle_prepared(&self, ray: &Ray, flat_ray: &FlatRay) -> Option<(u32, f32)> {
         let Some(flat) = &self.flat else {
@@ -247,16 +247,6 @@ impl MeshBvh {
         };
         let closest = self.traverser.flat_closest(flat, flat_ray, ray.t_min, ray.t_max);
         closest.map(|(first, t, _)| (self.mesh_index[first as usize], t))
-    }
-
-    /// [`MeshBvh::occluded`] with the ray's [`FlatRay`] built beforehand (as for
-    /// [`MeshBvh::closest_triangle_prepared`]).
-    #[inline]
-    pub fn occluded_prepared(&self, ray: &Ray, flat_ray: &FlatRay) -> bool {
-        match &self.flat {
-            Some(flat) => self.traverser.flat_any(flat, flat_ray, ray.t_min, ray.t_max),
-            None => self.occluded(ray),
-        }
     }
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.

@@ -102,44 +102,6 @@ impl FlatRay {
     }
 }
 
-impl FlatRay {
-    /// [`FlatRay::new`] of `N` rays given as lanes (as a renderer that shades several paths
-    /// at once has them): the same arithmetic, bit for bit (tested).
-    #[inline(always)]
-    pub fn lanes<const N: usize>(origin: &[[f32; N]; 3], dir: &[[f32; N]; 3]) -> [FlatRay; N] {
-        std::array::from_fn(|i| {
-            let d = [dir[0][i], dir[1][i], dir[2][i]];
-            let o = [origin[0][i], origin[1][i], origin[2][i]];
-            let a = d.map(f32::abs);
-            // RayShear::new: the dominant axis (x on ties with y or z, then y on ties with
-            // z), then the other two in winding order, swapped when the ray runs down kz.
-            let x_dominant = (a[0] >= a[1]) & (a[0] >= a[2]);
-            let kz: usize = if x_dominant {
-                0
-            } else if a[1] >= a[2] {
-                1
-            } else {
-                2
-            };
-            let (kx, ky) = ([1, 2, 0][kz], [2, 0, 1][kz]);
-            let (kx, ky) = if d[kz] < 0.0 { (ky, kx) } else { (kx, ky) };
-            // safe_inverse, -0.0 made +0.0 first; Vec3A::signum keeps a NaN as it is.
-            let inverse = |x: f32| {
-                let x = x + 0.0;
-                let sign = if x.is_nan() { x } else { 1.0f32.copysign(x) };
-                if x.abs() <= f32::EPSILON { sign / f32::EPSILON } else { 1.0 / x }
-            };
-            FlatRay {
-                origin: [o[kx], o[ky], o[kz]],
-                shear: [d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]],
-                axis: [kx, ky, kz],
-                world_origin: o,
-                inv_dir: d.map(inverse),
-            }
-        })
-    }
-}
-
 /// What a block test gives: the mask of lanes hit on `(t_min, t_max]`, and each lane's
 /// distance and barycentric weights of `v1` and `v2`.
 type BlockHits = (u32, [Lanes; 3]);
@@ -458,46 +420,5 @@ fn edge_functions_f64(zero: u32, corners: [&Lanes; 6], uvw: [&mut Lanes; 3]) {
         u[i] = (cx[i] * by[i] - cy[i] * bx[i]) as f32;
         v[i] = (ax[i] * cy[i] - ay[i] * cx[i]) as f32;
         w[i] = (bx[i] * ay[i] - by[i] * ax[i]) as f32;
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::core::rng::{stream, uniform};
-
-    fn bits(r: &FlatRay) -> Vec<u32> {
-        let floats = [r.origin, r.shear, r.world_origin, r.inv_dir].concat();
-        floats.iter().map(|x| x.to_bits()).chain(r.axis.iter().map(|&k| k as u32)).collect()
-    }
-
-    #[test]
-    fn eight_rays_at_once_match_one_at_a_time_bit_for_bit() {
-        let mut rng = stream(3, 4, 5);
-        let mut u = || uniform(&mut rng) * 2.0 - 1.0;
-        // Random rays, then axis-aligned ones, ties between axes, signed zeros, tiny slopes.
-        let mut dirs: Vec<Vec3> = (0..64).map(|_| Vec3::new(u(), u(), u())).collect();
-        for k in 0..3 {
-            for s in [1.0, -1.0] {
-                dirs.push(Vec3::from_array(std::array::from_fn(|c| if c == k { s } else { 0.0 })));
-            }
-        }
-        dirs.extend([
-            Vec3::new(1.0, 1.0, 0.5),
-            Vec3::new(-1.0, 1.0, -1.0),
-            Vec3::new(0.5, -1.0, -1.0),
-            Vec3::new(-0.0, 1.0, 1e-9),
-            Vec3::new(1e-9, -1e-8, -1.0),
-            Vec3::new(0.3, -0.0, -0.0),
-        ]);
-        dirs.resize(dirs.len().div_ceil(8) * 8, Vec3::Z);
-        for chunk in dirs.chunks(8) {
-            let origins: Vec<Vec3> = chunk.iter().map(|_| Vec3::new(u(), u(), u()) * 10.0).collect();
-            let lanes = |v: &[Vec3]| std::array::from_fn(|k| std::array::from_fn(|i| v[i][k]));
-            let eight = FlatRay::lanes::<8>(&lanes(&origins), &lanes(chunk));
-            for i in 0..8 {
-                assert_eq!(bits(&eight[i]), bits(&FlatRay::new(origins[i], chunk[i])), "{}", chunk[i]);
-            }
-        }
     }
 }

@@ -344,8 +344,6 @@ pub fn render_tile(
         // Phase 2: shading, eight lanes at once.
         let sh = if live.contains(&true) { shade(&v) } else { Shaded::default() };
         // Phase 3: shadow rays, the next rays, and lanes whose sample ends.
-        let shadow_rays = FlatRay::lanes(&sh.shadow_origin, &sh.shadow_dir);
-        let next_rays = FlatRay::lanes(&sh.origin, &sh.dir);
         let at = |x: &[Lanes; 3], i: usize| Vec3::new(x[0][i], x[1][i], x[2][i]);
         for (i, lane) in active.iter_mut().enumerate() {
             if !live[i] {
@@ -354,7 +352,7 @@ pub fn render_tile(
             if sh.shadow[i] != 0.0 {
                 *rays += 1;
                 let ray = Ray::segment(at(&sh.shadow_origin, i), at(&sh.shadow_dir, i), sh.shadow_t_max[i]);
-                if !scene.accel.mesh.occluded_prepared(&ray, &shadow_rays[i]) {
+                if !scene.accel.mesh.occluded(&ray) {
                     let direct = Vec3::new(sh.direct[0][i], sh.direct[1][i], sh.direct[2][i]);
                     lane.l += lane.beta * direct;
                 }
@@ -368,7 +366,8 @@ pub fn render_tile(
             lane.prev_pdf = sh.pdf[i];
             lane.prev_point = hit_points[i];
             lane.ray = Ray::new(at(&sh.origin, i), at(&sh.dir, i));
-            lane.flat_ray = next_rays[i];
+            // Built here, its divisions off the way to the next closest hit.
+            lane.flat_ray = FlatRay::new(lane.ray.origin, lane.ray.dir);
         }
         // Finished samples: add them up, start the pixel's next sample or the next pixel.
         let mut i = 0;
