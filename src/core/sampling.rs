@@ -47,7 +47,7 @@ pub fn concentric_disk(u: Vec2) -> Vec2 {
 /// `(sin x, cos x)` for `|x| <= pi/4`: Taylor polynomials to degree 9 and 10, whose
 /// truncation errors (below 2e-9) are far under an ulp. About a third of the cost of the
 /// general `sin_cos`, which must reduce any argument: 3 % of a Cornell box render.
-#[inline]
+#[inline(always)]
 pub fn sin_cos_quarter(x: f32) -> (f32, f32) {
     let x2 = x * x;
     let sin =

@@ -216,13 +216,13 @@ fn shade(v: &Vertices) -> Shaded {
     // most 1; before it, a path ends when its throughput is zero.
     let larger = |a: f32, b: f32| if a > b { a } else { b }; // glam's max_element, NaNs included
     let q_max = lanes(|i| larger(beta[0][i], larger(beta[1][i], beta[2][i])).min(1.0));
-    let alive = lanes(|i| {
-        let roulette = v.u_roulette[i] >= 0.0;
-        let nonzero = (beta[0][i] != 0.0) | (beta[1][i] != 0.0) | (beta[2][i] != 0.0);
-        let survives = !((q_max[i] <= 0.0) | (v.u_roulette[i] >= q_max[i]));
-        let lives = (pdf[i] > 0.0) & if roulette { survives } else { nonzero };
-        if lives { 1.0 } else { 0.0 }
-    });
+    let one_if = |c: bool| if c { 1.0 } else { 0.0 };
+    let roulette = lanes(|i| one_if(v.u_roulette[i] >= 0.0));
+    let survives = lanes(|i| one_if(!((q_max[i] <= 0.0) | (v.u_roulette[i] >= q_max[i]))));
+    let nonzero = lanes(|i| one_if((beta[0][i] != 0.0) | (beta[1][i] != 0.0) | (beta[2][i] != 0.0)));
+    // 0/1 arithmetic, which vectorises where a branch per lane would not.
+    let alive =
+        lanes(|i| one_if(pdf[i] > 0.0) * (roulette[i] * survives[i] + (1.0 - roulette[i]) * nonzero[i]));
     let beta = vec3(|k, i| if v.u_roulette[i] >= 0.0 { beta[k][i] / q_max[i] } else { beta[k][i] });
     // Ray::spawn_to the light point (along `wi`, the same arithmetic) and Ray::spawn.
     let shadow_origin = offset_origins(&v.point, &v.normal, &wi);
