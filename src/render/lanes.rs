@@ -466,6 +466,24 @@ mod tests {
                 assert!(max_depth == 0 || lanes.iter().any(|p| p.max_element() > 0.0));
             }
         }
+        // No emitter at all, lit by the background alone: no light to sample at any vertex.
+        let mut optics = scene.surfaces.clone();
+        optics.iter_mut().for_each(|o| o.emission = Vec3::ZERO);
+        let mesh = &world.scene.mesh;
+        let unlit = RenderScene::from_parts(&world.accel, mesh, &[], optics, &[], Vec3::new(0.5, 0.6, 0.7));
+        assert!(unlit.lights.is_empty() && applies(&unlit, &RenderSettings::default()));
+        let s = RenderSettings { width: 40, height: 36, spp: 4, ..RenderSettings::default() };
+        let mut rays = [0u64; 2];
+        let lanes = render_tile(&unlit, &pinhole, &s, (0, 0, 16, 16), &mut rays[0]);
+        let scalar: Vec<Vec3> =
+            (0..256).map(|k| render_pixel(&unlit, &pinhole, &s, k % 16, k / 16, &mut rays[1])).collect();
+        assert!(
+            lanes
+                .iter()
+                .zip(&scalar)
+                .all(|(a, b)| a.to_array().map(f32::to_bits) == b.to_array().map(f32::to_bits))
+        );
+        assert!(lanes.iter().any(|p| p.max_element() > 0.0));
         Ok(())
     }
 
