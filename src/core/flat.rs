@@ -35,7 +35,8 @@ pub const FLAT_LIMIT: usize = 96;
 /// block) rather than fill every lane.
 const MAX_BLOCKS: usize = 2 * LANES;
 
-type Lanes = [f32; LANES];
+/// One `f32` per lane.
+pub type Lanes = [f32; LANES];
 
 /// One block: corner `v`, axis `k` of lane `i` at `c[3 * v + k][i]`.
 #[derive(Clone, Copy, Debug, Default)]
@@ -115,9 +116,10 @@ trait Kernel {
     fn block(flat: &FlatTriangles, b: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> BlockHits;
 }
 
-/// `f` of every lane. (Plain loops, which inline where an iterator's closures may not.)
+/// `f` of every lane. (Plain loops, which inline where an iterator's closures may not, and
+/// vectorise.)
 #[inline(always)]
-fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
+pub fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
     let mut out = [0.0; LANES];
     for (i, o) in out.iter_mut().enumerate() {
         *o = f(i);

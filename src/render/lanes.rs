@@ -22,15 +22,14 @@ use super::{
     Bsdf, Camera, IntegratorKind, Light, PIXEL_DOMAIN, RenderScene, RenderSettings, power_heuristic,
 };
 use crate::core::Ray;
-use crate::core::flat::FlatRay;
+use crate::core::flat::{FlatRay, LANES, Lanes, lanes};
 use crate::core::ray::offset_origins;
 use crate::core::rng::{Rng64, stream};
 use crate::core::sampling::sin_cos_quarter;
 
-/// Paths in flight on one thread.
-const N: usize = 8;
-
-type Lanes = [f32; N];
+/// Paths in flight on one thread: eight, the width of the core's block tests (one AVX
+/// register of `f32`), so the core's lane helpers serve here too.
+const N: usize = LANES;
 
 /// Whether [`render_tile`] can render `scene` with `settings`: the path integrator, no
 /// spheres, Lambertian surfaces only, triangle lights only.
@@ -106,16 +105,6 @@ struct Shaded {
     beta: [Lanes; 3],
     /// 1 where the path goes on, else 0.
     alive: Lanes,
-}
-
-/// `f` of every lane. (A plain loop, which inlines and vectorises.)
-#[inline(always)]
-fn lanes(f: impl Fn(usize) -> f32) -> Lanes {
-    let mut out = [0.0; N];
-    for (i, o) in out.iter_mut().enumerate() {
-        *o = f(i);
-    }
-    out
 }
 
 /// A lane-wise vector: `f(k, i)` is component `k` of lane `i`.
