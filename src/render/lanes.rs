@@ -5,7 +5,8 @@
 //! sample, next hit), and the processor waits on each. Here eight lanes each render their own
 //! pixel's samples, and every bounce runs as three phases over the lanes: their closest hits,
 //! one after another (independent queries that the processor overlaps); their shading, as
-//! eight-wide array code that the compiler vectorises; their shadow rays and next rays. The
+//! eight-wide array code (which the compiler vectorises in part); their shadow rays and next
+//! rays. The
 //! arithmetic is that of [`super::path::trace`] step for step, and each pixel still draws
 //! from its own random stream in the same order, so the image is the scalar integrator's bit
 //! for bit (tested): only the order of the work changes (the wavefront idea of Laine, Karras
