@@ -253,4 +253,15 @@ fn same_seed_same_image_on_one_and_two_threads() {
             assert_ne!(bits(&one), bits(&other));
         }
     }
+    // The plain Cornell box takes the eight-lane path tracer; the same holds there.
+    let plain = RenderScene::new(&world);
+    let s =
+        RenderSettings { width: 45, height: 30, spp: 6, max_depth: 8, seed: 42, ..RenderSettings::default() };
+    assert!(propsim::render::lanes::applies(&plain, &s));
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| go(&plain, &cam, &s))
+    };
+    let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
+    assert_eq!(bits(&run(1)), bits(&run(2)));
 }
