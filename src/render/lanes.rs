@@ -14,18 +14,15 @@
 
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use glam::{Vec2, Vec3};
-use rand::RngCore;
+use glam::Vec3;
 
-use super::path::RR_START_DEPTH;
+use super::path::{RR_START_DEPTH, emitted};
 use super::sampler::{SampleState, Sampler};
-use super::{
-    Bsdf, Camera, IntegratorKind, Light, PIXEL_DOMAIN, RenderScene, RenderSettings, power_heuristic,
-};
+use super::{Bsdf, Camera, IntegratorKind, Light, RenderScene, RenderSettings, camera_ray, pixel_stream};
 use crate::core::Ray;
 use crate::core::flat::{FlatRay, LANES, Lanes, lanes};
 use crate::core::ray::offset_origins;
-use crate::core::rng::{Rng64, stream};
+use crate::core::rng::Rng64;
 use crate::core::sampling::sin_cos_quarter;
 
 /// Paths in flight on one thread: eight, the width of the core's block tests (one AVX
@@ -239,9 +236,7 @@ pub fn render_tile(
     let mut active: Vec<Lane> = Vec::with_capacity(N);
     let start = |pixel: usize| -> Lane {
         let (x, y) = (x0 + pixel as u32 % tw, y0 + pixel as u32 / tw);
-        let index = u64::from(y) * u64::from(s.width) + u64::from(x);
-        let mut rng = stream(s.seed, PIXEL_DOMAIN, index);
-        let pixel_seed = rng.next_u32();
+        let (rng, pixel_seed) = pixel_stream(s, x, y);
         let mut lane = Lane {
             pixel,
             x,
@@ -281,14 +276,8 @@ pub fn render_tile(
                 continue;
             };
             let optics = &scene.surfaces[hit.surface as usize];
-            if hit.front_face && optics.emission != Vec3::ZERO {
-                if lane.specular {
-                    lane.l += lane.beta * optics.emission;
-                } else {
-                    let light_pdf = scene.light_pdf(lane.prev_point, lane.ray.dir, &hit);
-                    lane.l += lane.beta * optics.emission * power_heuristic(lane.prev_pdf, light_pdf);
-                }
-            }
+            let previous = (lane.specular, lane.prev_pdf, lane.prev_point);
+            lane.l += emitted(scene, &hit, lane.ray.dir, lane.beta, previous);
             if lane.depth >= s.max_depth {
                 finished[i] = true;
                 continue;
@@ -396,11 +385,8 @@ pub fn render_tile(
 fn start_sample(lane: &mut Lane, camera: &Camera, s: &RenderSettings) {
     let has_lens = camera.aperture_radius_m > 0.0;
     let mut sampler = Sampler::new(lane.pixel_seed, lane.sample, has_lens, &mut lane.rng);
-    let o = sampler.get_2d();
-    let film = Vec2::new((lane.x as f32 + o.x) / s.width as f32, (lane.y as f32 + o.y) / s.height as f32);
-    let lens = if has_lens { sampler.get_2d() } else { Vec2::ZERO };
+    lane.ray = camera_ray(camera, s, lane.x, lane.y, &mut sampler);
     lane.numbers = sampler.state();
-    lane.ray = camera.ray(film, lens);
     lane.flat_ray = FlatRay::new(lane.ray.origin, lane.ray.dir);
     lane.l = Vec3::ZERO;
     lane.beta = Vec3::ONE;

@@ -405,25 +405,43 @@ fn render_pixel(
     y: u32,
     rays: &mut u64,
 ) -> Vec3 {
-    let index = u64::from(y) * u64::from(s.width) + u64::from(x);
-    let mut rng = stream(s.seed, PIXEL_DOMAIN, index);
-    let pixel_seed = rng.next_u32();
+    let (mut rng, pixel_seed) = pixel_stream(s, x, y);
     let jitter = s.integrator.jitters();
-    let (w, h) = (s.width as f32, s.height as f32);
+    let has_lens = camera.aperture_radius_m > 0.0;
     let mut sum = Vec3::ZERO;
     for k in 0..s.spp {
-        let has_lens = camera.aperture_radius_m > 0.0;
         let mut sampler = Sampler::new(pixel_seed, k, has_lens, &mut rng);
-        let o = if jitter { sampler.get_2d() } else { Vec2::splat(0.5) };
-        let film = Vec2::new((x as f32 + o.x) / w, (y as f32 + o.y) / h);
-        let lens = if jitter && has_lens { sampler.get_2d() } else { Vec2::ZERO };
-        let l = radiance(scene, s.integrator, camera.ray(film, lens), s.max_depth, &mut sampler, rays);
+        let ray = if jitter {
+            camera_ray(camera, s, x, y, &mut sampler)
+        } else {
+            let film = Vec2::new((x as f32 + 0.5) / s.width as f32, (y as f32 + 0.5) / s.height as f32);
+            camera.ray(film, Vec2::ZERO)
+        };
+        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;
         }
     }
     sum / s.spp as f32
+}
+
+/// Pixel `(x, y)`'s random stream and the seed of its Sobol scrambles (drawn first from it).
+fn pixel_stream(s: &RenderSettings, x: u32, y: u32) -> (Rng64, u32) {
+    let index = u64::from(y) * u64::from(s.width) + u64::from(x);
+    let mut rng = stream(s.seed, PIXEL_DOMAIN, index);
+    let pixel_seed = rng.next_u32();
+    (rng, pixel_seed)
+}
+
+/// The camera ray of a Monte Carlo sample of pixel `(x, y)`: the film pair, jittered inside
+/// the pixel, then the lens pair when the camera has a lens.
+#[inline]
+fn camera_ray(camera: &Camera, s: &RenderSettings, x: u32, y: u32, sampler: &mut Sampler) -> Ray {
+    let o = sampler.get_2d();
+    let film = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
+    let lens = if camera.aperture_radius_m > 0.0 { sampler.get_2d() } else { Vec2::ZERO };
+    camera.ray(film, lens)
 }
 
 /// Renders an image. `progress(pixels)` is called as tiles finish (from worker threads).

@@ -64,6 +64,30 @@ pub fn sample_direct(scene: &RenderScene, v: &Vertex, u: Vec2, rays: &mut u64, m
     f * ls.li * (w / light_pdf)
 }
 
+/// The emitted radiance a path of throughput `beta` picks up at `hit`, reached along `dir`:
+/// in full after a specular vertex (or from the camera), else weighted by the power heuristic
+/// against next-event estimation from the previous vertex; `previous` is (specular, BSDF
+/// density of `dir`, point) of that vertex.
+#[inline]
+pub(super) fn emitted(
+    scene: &RenderScene,
+    hit: &Hit,
+    dir: Vec3,
+    beta: Vec3,
+    previous: (bool, f32, Vec3),
+) -> Vec3 {
+    let emission = scene.surfaces[hit.surface as usize].emission;
+    let (specular, prev_pdf, prev_point) = previous;
+    if !hit.front_face || emission == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    if specular {
+        return beta * emission;
+    }
+    let light_pdf = scene.light_pdf(prev_point, dir, hit);
+    beta * emission * power_heuristic(prev_pdf, light_pdf)
+}
+
 /// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
 /// (1 = direct lighting only).
 pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
@@ -93,14 +117,7 @@ pub fn trace(
             break;
         };
         let optics = &scene.surfaces[hit.surface as usize];
-        if hit.front_face && optics.emission != Vec3::ZERO {
-            if specular {
-                l += beta * optics.emission;
-            } else {
-                let light_pdf = scene.light_pdf(prev_point, ray.dir, &hit);
-                l += beta * optics.emission * power_heuristic(prev_pdf, light_pdf);
-            }
-        }
+        l += emitted(scene, &hit, ray.dir, beta, (specular, prev_pdf, prev_point));
         if depth >= max_depth {
             break;
         }
