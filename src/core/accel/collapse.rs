@@ -3,10 +3,13 @@
 //! programme picks, for every binary node, the SAH-cheapest way to spread up to eight subtrees
 //! over a wide node's slots, then a top-down pass emits and quantises the wide nodes.
 //!
-//! It follows obvhs' `bvh2_to_cwbvh` step by step (same costs, same ties), with two changes:
-//! the cost pass runs in parallel (rayon) and returns the costs up the recursion, so only the
-//! decisions are stored, packed in 8 bytes a binary node instead of 56. Each cost depends only
-//! on its subtree, so the result is the same whatever the thread count.
+//! It follows obvhs' `bvh2_to_cwbvh` step by step (same costs, same ties, same node layout),
+//! with three changes: the cost pass runs in parallel (rayon) and returns the costs up the
+//! recursion, so only the decisions are stored, packed in 8 bytes a binary node instead of
+//! 56; the emission's top levels emit their subtrees in parallel and splice them in order;
+//! and both passes prefetch one level ahead. Each cost depends only on its subtree and each
+//! part lands where the sequential pass puts it, so the result is the same whatever the
+//! thread count.
 
 use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
 
@@ -15,6 +18,8 @@ use obvhs::bvh2::Bvh2;
 use obvhs::bvh2::node::Bvh2Node;
 use obvhs::cwbvh::node::CwBvhNode;
 use rayon::prelude::*;
+
+use crate::core::traverse::prefetch;
 
 /// SAH cost of a primitive relative to a node visit (obvhs' value).
 const PRIM_COST: f32 = 0.3;
@@ -42,6 +47,26 @@ fn unpack(decisions: &[AtomicU64], node: usize, i: usize) -> (u8, usize, usize) 
     (d & 3, usize::from(d >> 2 & 7), usize::from(d >> 5))
 }
 
+/// Starts loading the children of the children of binary node `n` (whose own children are
+/// loaded): the tree is walked depth first over nodes scattered through memory, so each
+/// level's loads are issued one level ahead and overlap the work on the sibling subtree.
+/// The cost pass was waiting on these loads half of its time.
+#[inline(always)]
+fn prefetch_grandchildren(nodes: &[Bvh2Node], n: &Bvh2Node) {
+    if n.is_leaf() {
+        return;
+    }
+    let first = n.first_index as usize;
+    for c in [first, first + 1] {
+        if let Some(child) = nodes.get(c)
+            && !child.is_leaf()
+            && let Some(grandchild) = nodes.get(child.first_index as usize)
+        {
+            prefetch(grandchild);
+        }
+    }
+}
+
 /// The SAH costs of `n`'s subtree spread over 1..=7 slots, and its primitive count; stores
 /// the decisions of `n` and below.
 fn cost(
@@ -58,6 +83,7 @@ fn cost(
         decisions[n].store(0, Relaxed);
         return ([half_area * PRIM_COST; 7], 1);
     }
+    prefetch_grandchildren(nodes, node);
     let (a, b) = (node.first_index as usize, node.first_index as usize + 1);
     let ((ca, pa), (cb, pb)) = if level < PARALLEL_LEVELS {
         rayon::join(
@@ -146,8 +172,9 @@ impl Emit<'_> {
         self.push_primitives(first) + self.push_primitives(first + 1)
     }
 
-    /// Fills wide node `at` from binary node `n`, then its internal children.
-    fn emit(&mut self, at: usize, n: usize) {
+    /// Fills wide node `at` from binary node `n` and appends its leaves' primitives; reserves
+    /// the slots of its internal children and returns them, binary node per slot in order.
+    fn node(&mut self, at: usize, n: usize) -> Vec<usize> {
         let aabb = *self.nodes[n].aabb();
         let mut node = CwBvhNode { p: aabb.min.into(), ..Default::default() };
         let extent = (aabb.max - aabb.min).max(Vec3A::splat(1e-20)) * DENOM;
@@ -158,7 +185,8 @@ impl Emit<'_> {
         self.children(n, 0, &mut children, &mut count);
         node.primitive_base_idx = self.prims.len() as u32;
         node.child_base_idx = self.out.len() as u32;
-        let (mut internal, mut prims) = (0, 0u32);
+        let mut internal = Vec::with_capacity(count);
+        let mut prims = 0u32;
         let p = Vec3A::from(node.p);
         for (i, &c) in children[..count].iter().enumerate() {
             let b = self.nodes[c].aabb();
@@ -178,19 +206,69 @@ impl Emit<'_> {
             } else {
                 node.imask |= 1 << i;
                 node.child_meta[i] = (24 + i as u8) | 0b0010_0000;
-                internal += 1;
+                internal.push(c);
             }
         }
-        self.out.resize(self.out.len() + internal, CwBvhNode::default());
+        self.out.resize(self.out.len() + internal.len(), CwBvhNode::default());
         self.out[at] = node;
-        let mut next = node.child_base_idx as usize;
-        for (i, &c) in children[..count].iter().enumerate() {
-            if node.imask & (1 << i) != 0 {
-                self.emit(next, c);
-                next += 1;
-            }
+        internal
+    }
+
+    /// Fills wide node `at` from binary node `n`, then its internal children.
+    fn emit(&mut self, at: usize, n: usize) {
+        let internal = self.node(at, n);
+        let first = self.out[at].child_base_idx as usize;
+        for (k, c) in internal.into_iter().enumerate() {
+            self.emit(first + k, c);
         }
     }
+
+    /// Emits the wide subtree rooted at binary node `n` on its own, as a [`Part`]. The top
+    /// [`PARALLEL_EMIT_LEVELS`] levels emit their children's subtrees in parallel and splice
+    /// them in, which gives the same nodes as one sequential pass.
+    fn part(&self, n: usize, level: u32) -> Part {
+        let mut emit = Emit {
+            nodes: self.nodes,
+            decisions: self.decisions,
+            order: self.order,
+            out: vec![CwBvhNode::default()],
+            prims: Vec::new(),
+        };
+        if level >= PARALLEL_EMIT_LEVELS {
+            emit.emit(0, n);
+            return Part { nodes: emit.out, prims: emit.prims };
+        }
+        let internal = emit.node(0, n);
+        let parts: Vec<Part> = internal.par_iter().map(|&c| self.part(c, level + 1)).collect();
+        let (mut nodes, mut prims) = (emit.out, emit.prims);
+        nodes.reserve(parts.iter().map(|p| p.nodes.len() - 1).sum());
+        prims.reserve(parts.iter().map(|p| p.prims.len()).sum());
+        for (k, part) in parts.into_iter().enumerate() {
+            // The part's root fills slot `k`; its node `x >= 1` goes to `nodes.len() + x - 1`,
+            // its primitives after ours: where a sequential pass would have put them.
+            let base = nodes.len() as u32 - 1;
+            let prim_base = prims.len() as u32;
+            let from = nodes.len();
+            nodes.extend_from_slice(&part.nodes[1..]);
+            nodes[1 + k] = part.nodes[0];
+            for node in std::iter::once(1 + k).chain(from..nodes.len()) {
+                nodes[node].child_base_idx += base;
+                nodes[node].primitive_base_idx += prim_base;
+            }
+            prims.extend_from_slice(&part.prims);
+        }
+        Part { nodes, prims }
+    }
+}
+
+/// Wide-node levels whose children's subtrees are emitted in parallel.
+const PARALLEL_EMIT_LEVELS: u32 = 2;
+
+/// A wide subtree emitted on its own: its root first, node and primitive indices counted from
+/// its own start.
+struct Part {
+    nodes: Vec<CwBvhNode>,
+    prims: Vec<u32>,
 }
 
 /// The CWBVH nodes of `bvh2` (one primitive per binary leaf) with at most `max_prims`
@@ -202,15 +280,13 @@ pub fn collapse(bvh2: &Bvh2, max_prims: u32) -> (Vec<CwBvhNode>, Vec<u32>) {
     let decisions: Vec<AtomicU64> =
         (0..bvh2.nodes.len()).into_par_iter().map(|_| AtomicU64::new(0)).collect();
     cost(&bvh2.nodes, &decisions, 0, max_prims.clamp(1, 3), 0);
-    let prims = bvh2.primitive_indices.len();
-    let mut emit = Emit {
+    let emit = Emit {
         nodes: &bvh2.nodes,
         decisions: &decisions,
         order: &bvh2.primitive_indices,
-        out: Vec::with_capacity(prims / 4 + 1),
-        prims: Vec::with_capacity(prims),
+        out: Vec::new(),
+        prims: Vec::new(),
     };
-    emit.out.push(CwBvhNode::default());
-    emit.emit(0, 0);
-    (emit.out, emit.prims)
+    let whole = emit.part(0, 0);
+    (whole.nodes, whole.prims)
 }
