@@ -6,8 +6,8 @@
 //! It follows obvhs' `bvh2_to_cwbvh` step by step (same costs, same ties, same node layout),
 //! with three changes: the cost pass runs in parallel (rayon) and returns the costs up the
 //! recursion, so only the decisions are stored, packed in 8 bytes a binary node instead of
-//! 56; the emission's top levels emit their subtrees in parallel and splice them in order;
-//! and both passes prefetch one level ahead. Each cost depends only on its subtree and each
+//! 56; the cost pass prefetches a level ahead; and the emission's top levels emit their subtrees
+//! in parallel and splice them in order. Each cost depends only on its subtree and each
 //! part lands where the sequential pass puts it, so the result is the same whatever the
 //! thread count.
 
@@ -174,7 +174,7 @@ impl Emit<'_> {
 
     /// Fills wide node `at` from binary node `n` and appends its leaves' primitives; reserves
     /// the slots of its internal children and returns them, binary node per slot in order.
-    fn node(&mut self, at: usize, n: usize) -> Vec<usize> {
+    fn node(&mut self, at: usize, n: usize) -> Internal {
         let aabb = *self.nodes[n].aabb();
         let mut node = CwBvhNode { p: aabb.min.into(), ..Default::default() };
         let extent = (aabb.max - aabb.min).max(Vec3A::splat(1e-20)) * DENOM;
@@ -185,7 +185,7 @@ impl Emit<'_> {
         self.children(n, 0, &mut children, &mut count);
         node.primitive_base_idx = self.prims.len() as u32;
         node.child_base_idx = self.out.len() as u32;
-        let mut internal = Vec::with_capacity(count);
+        let mut internal = Internal::default();
         let mut prims = 0u32;
         let p = Vec3A::from(node.p);
         for (i, &c) in children[..count].iter().enumerate() {
@@ -206,10 +206,11 @@ impl Emit<'_> {
             } else {
                 node.imask |= 1 << i;
                 node.child_meta[i] = (24 + i as u8) | 0b0010_0000;
-                internal.push(c);
+                internal.nodes[internal.count] = c;
+                internal.count += 1;
             }
         }
-        self.out.resize(self.out.len() + internal.len(), CwBvhNode::default());
+        self.out.resize(self.out.len() + internal.count, CwBvhNode::default());
         self.out[at] = node;
         internal
     }
@@ -218,7 +219,7 @@ impl Emit<'_> {
     fn emit(&mut self, at: usize, n: usize) {
         let internal = self.node(at, n);
         let first = self.out[at].child_base_idx as usize;
-        for (k, c) in internal.into_iter().enumerate() {
+        for (k, &c) in internal.nodes[..internal.count].iter().enumerate() {
             self.emit(first + k, c);
         }
     }
@@ -239,7 +240,8 @@ impl Emit<'_> {
             return Part { nodes: emit.out, prims: emit.prims };
         }
         let internal = emit.node(0, n);
-        let parts: Vec<Part> = internal.par_iter().map(|&c| self.part(c, level + 1)).collect();
+        let parts: Vec<Part> =
+            internal.nodes[..internal.count].par_iter().map(|&c| self.part(c, level + 1)).collect();
         let (mut nodes, mut prims) = (emit.out, emit.prims);
         nodes.reserve(parts.iter().map(|p| p.nodes.len() - 1).sum());
         prims.reserve(parts.iter().map(|p| p.prims.len()).sum());
@@ -259,6 +261,13 @@ impl Emit<'_> {
         }
         Part { nodes, prims }
     }
+}
+
+/// The binary nodes of a wide node's internal children, in slot order.
+#[derive(Default)]
+struct Internal {
+    nodes: [usize; 8],
+    count: usize,
 }
 
 /// Wide-node levels whose children's subtrees are emitted in parallel.
