@@ -249,6 +249,16 @@ impl MeshBvh {
         closest.map(|(first, t, _)| (self.mesh_index[first as usize], t))
     }
 
+    /// A flat mesh's blocks and the mesh index of each of their slots.
+    pub(crate) fn flat_parts(&self) -> Option<(&FlatTriangles, &[u32])> {
+        self.flat.as_ref().map(|flat| (flat, self.mesh_index.as_slice()))
+    }
+
+    /// The traversal's choice of instruction set.
+    pub(crate) fn traverser(&self) -> &Traverser {
+        &self.traverser
+    }
+
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
         if let Some(flat) = &self.flat {
@@ -608,6 +618,7 @@ pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> b
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::core::queries::{Queries, QueryLoop};
     use crate::core::rng::{stream, uniform};
     use crate::core::sampling::uniform_sphere;
 
@@ -772,6 +783,19 @@ mod tests {
             a.sort_unstable();
             b.sort_unstable();
             assert_eq!(a, b, "ray {k}");
+        }
+        // The queries compiled into a caller's loop answer as the methods do.
+        struct Answers<'r>(&'r [Ray]);
+        impl QueryLoop<Vec<(Option<(u32, f32)>, bool)>> for Answers<'_> {
+            #[inline(always)]
+            fn run<Q: Queries>(self, q: &Q) -> Vec<(Option<(u32, f32)>, bool)> {
+                self.0.iter().map(|r| (q.closest(r, &FlatRay::new(r.origin, r.dir)), q.occluded(r))).collect()
+            }
+        }
+        let rays = &rays[..2_000];
+        for (i, (closest, occluded)) in simd.run_queries(Answers(rays)).into_iter().enumerate() {
+            assert_eq!(closest, portable.closest_triangle(&rays[i]), "ray {i}");
+            assert_eq!(occluded, portable.occluded(&rays[i]), "ray {i}");
         }
     }
 }

@@ -45,11 +45,12 @@ struct Block {
     c: [Lanes; 9],
 }
 
-/// The boxes of 8 blocks: `lo` x, y, z then `hi` x, y, z, one lane a block.
+/// The boxes of all blocks: `lo` x, y, z then `hi` x, y, z, one lane a block, so that
+/// blocks `8 g..8 g + 8` are one 32-byte run and all 16 one 64-byte run (AVX-512).
 #[derive(Clone, Copy, Debug, Default)]
-#[repr(C, align(32))]
+#[repr(C, align(64))]
 struct Boxes {
-    b: [Lanes; 6],
+    b: [[f32; MAX_BLOCKS]; 6],
 }
 
 /// A small mesh's triangles in at most 16 blocks of [`LANES`]. A triangle's slot is
@@ -59,8 +60,8 @@ pub struct FlatTriangles {
     blocks: Vec<Block>,
     /// Lanes of each block that hold a triangle.
     occupied: Vec<u32>,
-    /// Boxes of blocks `8 g..8 g + 8` in `boxes[g]`.
-    boxes: Vec<Boxes>,
+    /// Every block's box.
+    boxes: Boxes,
     /// Input index of the triangle in each slot; `None` for empty lanes.
     slots: Vec<Option<u32>>,
 }
@@ -112,6 +113,23 @@ trait Kernel {
     /// Of the 8 blocks of box group `g`, those whose boxes the ray crosses on
     /// `(t_min, t_max]`, and the entry distances.
     fn boxes(flat: &FlatTriangles, g: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> (u32, Lanes);
+    /// The blocks whose boxes the ray crosses on `(t_min, t_max]` (bit `b` for block `b`),
+    /// and their entry distances: a box test per 8 blocks, unless the kernel is wider.
+    #[inline(always)]
+    fn entered(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> (u32, [f32; MAX_BLOCKS]) {
+        let mut near = [0.0; MAX_BLOCKS];
+        if flat.blocks.is_empty() {
+            return (0, near);
+        }
+        let (blocks, first) = Self::boxes(flat, 0, ray, t_min, t_max);
+        near[..LANES].copy_from_slice(&first);
+        if flat.blocks.len() <= LANES {
+            return (blocks, near);
+        }
+        let (more, second) = Self::boxes(flat, 1, ray, t_min, t_max);
+        near[LANES..].copy_from_slice(&second);
+        (blocks | more << LANES, near)
+    }
     /// The watertight test of the triangles of block `b`. Two-sided.
     fn block(flat: &FlatTriangles, b: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> BlockHits;
 }
@@ -143,10 +161,10 @@ struct Portable;
 impl Kernel for Portable {
     #[inline(always)]
     fn boxes(flat: &FlatTriangles, g: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> (u32, Lanes) {
-        let b = &flat.boxes[g].b;
+        let b = &flat.boxes.b;
         let slab = |k: usize, i: usize| {
-            let t0 = (b[k][i] - ray.world_origin[k]) * ray.inv_dir[k];
-            let t1 = (b[3 + k][i] - ray.world_origin[k]) * ray.inv_dir[k];
+            let t0 = (b[k][LANES * g + i] - ray.world_origin[k]) * ray.inv_dir[k];
+            let t1 = (b[3 + k][LANES * g + i] - ray.world_origin[k]) * ray.inv_dir[k];
             (t0.min(t1), t0.max(t1))
         };
         let near = lanes(|i| slab(0, i).0.max(slab(1, i).0).max(slab(2, i).0.max(t_min)));
@@ -193,29 +211,6 @@ impl Kernel for Portable {
     }
 }
 
-/// The blocks whose boxes the ray crosses on `(t_min, t_max]` (bit `b` for block `b`), and
-/// their entry distances.
-#[inline(always)]
-fn entered<K: Kernel>(
-    flat: &FlatTriangles,
-    ray: &FlatRay,
-    t_min: f32,
-    t_max: f32,
-) -> (u32, [f32; MAX_BLOCKS]) {
-    let mut near = [0.0; MAX_BLOCKS];
-    if flat.boxes.is_empty() {
-        return (0, near);
-    }
-    let (blocks, first) = K::boxes(flat, 0, ray, t_min, t_max);
-    near[..LANES].copy_from_slice(&first);
-    if flat.boxes.len() < 2 {
-        return (blocks, near);
-    }
-    let (more, second) = K::boxes(flat, 1, ray, t_min, t_max);
-    near[LANES..].copy_from_slice(&second);
-    (blocks | more << LANES, near)
-}
-
 /// The closest hit on `(t_min, t_max]` as (slot, distance, barycentrics): the blocks the ray
 /// enters, nearest first, until the next one starts beyond the closest hit.
 #[inline(always)]
@@ -225,7 +220,7 @@ fn closest_with<K: Kernel>(
     t_min: f32,
     mut t_max: f32,
 ) -> Option<(u32, f32, Vec2)> {
-    let (mut blocks, near) = entered::<K>(flat, ray, t_min, t_max);
+    let (mut blocks, near) = K::entered(flat, ray, t_min, t_max);
     let mut best = None;
     while blocks != 0 {
         let b = nearest(blocks, &near);
@@ -250,7 +245,7 @@ fn closest_with<K: Kernel>(
 /// Whether any triangle lies on `(t_min, t_max]`.
 #[inline(always)]
 fn any_with<K: Kernel>(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
-    let (mut blocks, _) = entered::<K>(flat, ray, t_min, t_max);
+    let (mut blocks, _) = K::entered(flat, ray, t_min, t_max);
     while blocks != 0 {
         let b = blocks.trailing_zeros() as usize;
         blocks &= blocks - 1;
@@ -280,13 +275,9 @@ impl FlatTriangles {
             }
             // A few ulps of padding keep the box test conservative, as the tree's boxes.
             let pad = Vec3::splat(1.0e-6 * (1.0 + min.abs().max(max.abs()).max_element()));
-            if b % LANES == 0 {
-                flat.boxes.push(Boxes::default());
-            }
-            let boxes = &mut flat.boxes[b / LANES].b;
             for k in 0..3 {
-                boxes[k][b % LANES] = min[k] - pad[k];
-                boxes[3 + k][b % LANES] = max[k] + pad[k];
+                flat.boxes.b[k][b] = min[k] - pad[k];
+                flat.boxes.b[3 + k][b] = max[k] + pad[k];
             }
             flat.blocks.push(block);
             flat.occupied.push((1u32 << members.len()) - 1);
@@ -302,9 +293,7 @@ impl FlatTriangles {
 
     /// Bytes held.
     pub fn memory_bytes(&self) -> usize {
-        self.blocks.len() * (size_of::<Block>() + 4)
-            + self.boxes.len() * size_of::<Boxes>()
-            + self.slots.len() * 8
+        self.blocks.len() * (size_of::<Block>() + 4) + size_of::<Boxes>() + self.slots.len() * 8
     }
 
     /// Bit `i` set for each block `8 g + i` of box group `g`.
@@ -312,6 +301,12 @@ impl FlatTriangles {
     fn block_mask(&self, g: usize) -> u32 {
         let n = self.blocks.len().saturating_sub(LANES * g).min(LANES);
         (1u32 << n) - 1
+    }
+
+    /// Bit `b` set for each block.
+    #[inline(always)]
+    fn blocks_mask(&self) -> u32 {
+        (1u32 << self.blocks.len()) - 1
     }
 
     /// The closest hit on `(t_min, t_max]` as (slot, distance, barycentrics).

@@ -8,6 +8,8 @@ pub mod hit;
 pub mod launcher;
 pub mod leaf;
 pub mod mesh;
+#[allow(unsafe_code)]
+pub mod queries;
 pub mod ray;
 pub mod rng;
 pub mod sampling;

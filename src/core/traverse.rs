@@ -332,6 +332,21 @@ impl Stack<'_> {
     }
 }
 
+/// Which kernel a flat mesh's queries use ([`super::flat`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum FlatKernel {
+    Portable,
+    /// AVX (the CPU has FMA, SSE4.1 and POPCNT too).
+    #[cfg(target_arch = "x86_64")]
+    Avx,
+    /// AVX, on a CPU that has AVX2 and BMI1 too.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    /// AVX with AVX-512F's box test (and AVX2).
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
 /// Which node test the traversal uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 enum Isa {
@@ -340,10 +355,13 @@ enum Isa {
     Avx,
     #[cfg(target_arch = "x86_64")]
     Avx2,
+    /// AVX2's node tests; a flat mesh's 16 block boxes in one AVX-512 test.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
 /// Environment variable that lowers the node test below the best the CPU has: `portable`,
-/// `avx` or `avx2` (to compare them, or to rule one out); other values are ignored.
+/// `avx`, `avx2` or `avx512` (to compare them, or to rule one out); other values are ignored.
 pub const ISA_VARIABLE: &str = "PROPSIM_TRAVERSAL";
 
 impl Isa {
@@ -356,6 +374,8 @@ impl Isa {
             Ok("avx") => Some(Isa::Avx),
             #[cfg(target_arch = "x86_64")]
             Ok("avx2") => Some(Isa::Avx2),
+            #[cfg(target_arch = "x86_64")]
+            Ok("avx512") => Some(Isa::Avx512),
             _ => None,
         };
         asked.filter(|a| *a <= best).unwrap_or(best)
@@ -369,7 +389,10 @@ impl Isa {
                 && is_x86_feature_detected!("fma")
                 && is_x86_feature_detected!("sse4.1")
                 && is_x86_feature_detected!("popcnt");
-            if avx && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("bmi1") {
+            let avx2 = avx && is_x86_feature_detected!("avx2") && is_x86_feature_detected!("bmi1");
+            if avx2 && is_x86_feature_detected!("avx512f") {
+                Isa::Avx512
+            } else if avx2 {
                 Isa::Avx2
             } else if avx {
                 Isa::Avx
@@ -450,6 +473,19 @@ impl Traverser {
         self.stream
     }
 
+    /// The widest flat-mesh kernel this traversal may use.
+    pub(crate) fn flat_kernel(&self) -> FlatKernel {
+        match self.isa {
+            Isa::Scalar => FlatKernel::Portable,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx => FlatKernel::Avx,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => FlatKernel::Avx2,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512 => FlatKernel::Avx512,
+        }
+    }
+
     /// Every traversal this CPU can run, the portable one first: for tests of one against
     /// the others.
     #[cfg(test)]
@@ -458,7 +494,12 @@ impl Traverser {
         let best = Isa::best();
         let mut all = vec![Self { isa: Isa::Scalar, ..one }];
         #[cfg(target_arch = "x86_64")]
-        all.extend([Isa::Avx, Isa::Avx2].into_iter().filter(|i| *i <= best).map(|isa| Self { isa, ..one }));
+        all.extend(
+            [Isa::Avx, Isa::Avx2, Isa::Avx512]
+                .into_iter()
+                .filter(|i| *i <= best)
+                .map(|isa| Self { isa, ..one }),
+        );
         all
     }
 
@@ -493,8 +534,11 @@ impl Traverser {
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { closest_avx(nodes, ray, t_max, leaves, s) }),
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
-            Isa::Avx2 => self.with_stack(|s| unsafe { closest_avx2(nodes, ray, t_max, leaves, s) }),
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2, FMA,
+            // BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => {
+                self.with_stack(|s| unsafe { closest_avx2(nodes, ray, t_max, leaves, s) })
+            }
         }
     }
 
@@ -517,8 +561,9 @@ impl Traverser {
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => self.with_stack(|s| unsafe { any_avx(nodes, ray, t_max, leaves, s) }),
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
-            Isa::Avx2 => self.with_stack(|s| unsafe { any_avx2(nodes, ray, t_max, leaves, s) }),
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2, FMA,
+            // BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => self.with_stack(|s| unsafe { any_avx2(nodes, ray, t_max, leaves, s) }),
         }
     }
 }
@@ -562,8 +607,9 @@ impl Traverser {
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => unsafe { closest_stream_avx(nodes, count, start, finish, stacks) },
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
-            Isa::Avx2 => unsafe { closest_stream_avx2(nodes, count, start, finish, stacks) },
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2, FMA,
+            // BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => unsafe { closest_stream_avx2(nodes, count, start, finish, stacks) },
         })
     }
 
@@ -592,8 +638,9 @@ impl Traverser {
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
             Isa::Avx => unsafe { any_stream_avx(nodes, count, start, finish, stacks) },
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` is only chosen when the CPU has AVX2, FMA, BMI1 and POPCNT.
-            Isa::Avx2 => unsafe { any_stream_avx2(nodes, count, start, finish, stacks) },
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2, FMA,
+            // BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => unsafe { any_stream_avx2(nodes, count, start, finish, stacks) },
         })
     }
 }
@@ -613,6 +660,9 @@ impl Traverser {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` and `Isa::Avx2` are only chosen when the CPU has AVX.
             Isa::Avx | Isa::Avx2 => unsafe { super::flat::avx::closest(flat, ray, t_min, t_max) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx512` is only chosen when the CPU has AVX-512F (and AVX).
+            Isa::Avx512 => unsafe { super::flat::avx::closest512(flat, ray, t_min, t_max) },
         }
     }
 
@@ -624,6 +674,9 @@ impl Traverser {
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` and `Isa::Avx2` are only chosen when the CPU has AVX.
             Isa::Avx | Isa::Avx2 => unsafe { super::flat::avx::any(flat, ray, t_min, t_max) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx512` is only chosen when the CPU has AVX-512F (and AVX).
+            Isa::Avx512 => unsafe { super::flat::avx::any512(flat, ray, t_min, t_max) },
         }
     }
 }

@@ -21,6 +21,7 @@ use super::sampler::{SampleState, Sampler};
 use super::{Bsdf, Camera, IntegratorKind, Light, RenderScene, RenderSettings, camera_ray, pixel_stream};
 use crate::core::Ray;
 use crate::core::flat::{FlatRay, LANES, Lanes, lanes};
+use crate::core::queries::{Queries, QueryLoop};
 use crate::core::ray::offset_origins;
 use crate::core::rng::Rng64;
 use crate::core::sampling::sin_cos_quarter;
@@ -121,7 +122,7 @@ fn dot(a: [&Lanes; 3], b: [&Lanes; 3]) -> Lanes {
 /// `Frame::new`, `Light::sample` (triangle), `Bsdf::eval`, `Bsdf::pdf`, `power_heuristic`,
 /// `Bsdf::sample` (Lambert) and the path loop's Russian roulette, lane by lane. Conditions
 /// are written as selects inside each lane loop, so that the loops vectorise.
-#[inline(never)]
+#[inline(always)]
 fn shade(v: &Vertices) -> Shaded {
     let [nx, ny, nz] = &v.normal;
     // Frame::new (Duff et al. 2017).
@@ -226,6 +227,36 @@ pub fn render_tile(
     scene: &RenderScene,
     camera: &Camera,
     s: &RenderSettings,
+    tile: (u32, u32, u32, u32),
+    rays: &mut u64,
+) -> Vec<Vec3> {
+    scene.accel.mesh.run_queries(Tile { scene, camera, s, tile, rays })
+}
+
+/// [`render_tile`]'s arguments: the loop, compiled with the mesh's queries inlined.
+struct Tile<'a> {
+    scene: &'a RenderScene<'a>,
+    camera: &'a Camera,
+    s: &'a RenderSettings,
+    tile: (u32, u32, u32, u32),
+    rays: &'a mut u64,
+}
+
+impl QueryLoop<Vec<Vec3>> for Tile<'_> {
+    #[inline(always)]
+    fn run<Q: Queries>(self, queries: &Q) -> Vec<Vec3> {
+        let Tile { scene, camera, s, tile, rays } = self;
+        tile_loop(queries, scene, camera, s, tile, rays)
+    }
+}
+
+/// [`render_tile`] with `queries`.
+#[inline(always)]
+fn tile_loop(
+    queries: &impl Queries,
+    scene: &RenderScene,
+    camera: &Camera,
+    s: &RenderSettings,
     (x0, y0, x1, y1): (u32, u32, u32, u32),
     rays: &mut u64,
 ) -> Vec<Vec3> {
@@ -270,7 +301,7 @@ pub fn render_tile(
         let mut finished = [false; N];
         for (i, lane) in active.iter_mut().enumerate() {
             *rays += 1;
-            let Some(hit) = scene.intersect_prepared(&lane.ray, &lane.flat_ray) else {
+            let Some(hit) = scene.hit_of(&lane.ray, queries.closest(&lane.ray, &lane.flat_ray)) else {
                 lane.l += lane.beta * scene.background;
                 finished[i] = true;
                 continue;
@@ -331,7 +362,7 @@ pub fn render_tile(
             if sh.shadow[i] != 0.0 {
                 *rays += 1;
                 let ray = Ray::segment(at(&sh.shadow_origin, i), at(&sh.shadow_dir, i), sh.shadow_t_max[i]);
-                if !scene.accel.mesh.occluded(&ray) {
+                if !queries.occluded(&ray) {
                     let direct = Vec3::new(sh.direct[0][i], sh.direct[1][i], sh.direct[2][i]);
                     lane.l += lane.beta * direct;
                 }

@@ -268,7 +268,7 @@ impl<'a> RenderScene<'a> {
 
     /// The hit of `ray` given its closest triangle (mesh index, distance), spheres included.
     #[inline(always)]
-    fn hit_of(&self, ray: &Ray, triangle: Option<(u32, f32)>) -> Option<Hit> {
+    pub(super) fn hit_of(&self, ray: &Ray, triangle: Option<(u32, f32)>) -> Option<Hit> {
         let mut best = triangle.map(|(i, t)| {
             let (normal, surface) = self.triangles[i as usize];
             Hit {

@@ -6,22 +6,35 @@ use std::arch::x86_64::*;
 use glam::Vec2;
 
 use super::{
-    BlockHits, FlatRay, FlatTriangles, Kernel, LANES, Lanes, any_with, closest_with, edge_functions_f64,
+    BlockHits, FlatRay, FlatTriangles, Kernel, LANES, Lanes, MAX_BLOCKS, any_with, closest_with,
+    edge_functions_f64,
 };
 
 /// The 8-wide kernel. Every function here is `inline(always)` so that it ends up in the
 /// `target_feature` functions below, where the intrinsics inline too.
 struct Avx;
 
-/// Loads a run of 8 floats of a block or of the boxes.
+/// Loads a run of 8 floats of a block.
 ///
 /// # Safety
-/// The CPU must have AVX, and `lanes` must be 32-byte aligned (the runs of `Block` and
-/// `Boxes` are: both are `align(32)` and made of such runs).
+/// The CPU must have AVX, and `lanes` must be 32-byte aligned (the runs of `Block` are: it is
+/// `align(32)` and made of such runs).
 #[inline(always)]
 unsafe fn load(lanes: &Lanes) -> __m256 {
     // SAFETY: per the contract.
     unsafe { _mm256_load_ps(lanes.as_ptr()) }
+}
+
+/// Loads the boxes' run for blocks `8 g..8 g + 8`, `g` 0 or 1.
+///
+/// # Safety
+/// The CPU must have AVX. (The runs are 32-byte aligned: `Boxes` is `align(64)` and its
+/// rows are 16 floats.)
+#[inline(always)]
+unsafe fn load_half(row: &[f32; 2 * LANES], g: usize) -> __m256 {
+    let half: &Lanes = if g == 0 { row.first_chunk() } else { row.last_chunk() }.unwrap_or(&[0.0; LANES]);
+    // SAFETY: per the contract.
+    unsafe { load(half) }
 }
 
 /// The 8 lanes of `x`.
@@ -43,14 +56,14 @@ impl Kernel for Avx {
         // below, entered after `is_x86_feature_detected!` confirmed AVX; the boxes are
         // 32-byte aligned.
         unsafe {
-            let b = &flat.boxes[g].b;
+            let b = &flat.boxes.b;
             let [o, inv] = [ray.world_origin, ray.inv_dir];
             let mut near = [_mm256_setzero_ps(); 3];
             let mut far = [_mm256_setzero_ps(); 3];
             for k in 0..3 {
                 let (o, inv) = (_mm256_set1_ps(o[k]), _mm256_set1_ps(inv[k]));
-                let t0 = _mm256_mul_ps(_mm256_sub_ps(load(&b[k]), o), inv);
-                let t1 = _mm256_mul_ps(_mm256_sub_ps(load(&b[3 + k]), o), inv);
+                let t0 = _mm256_mul_ps(_mm256_sub_ps(load_half(&b[k], g), o), inv);
+                let t1 = _mm256_mul_ps(_mm256_sub_ps(load_half(&b[3 + k], g), o), inv);
                 (near[k], far[k]) = (_mm256_min_ps(t0, t1), _mm256_max_ps(t0, t1));
             }
             let ([nx, ny, nz], [fx, fy, fz]) = (near, far);
@@ -121,6 +134,48 @@ impl Kernel for Avx {
     }
 }
 
+/// The AVX kernel with all 16 block boxes in one AVX-512 test, the same operations in the
+/// same order as [`Avx::boxes`], so the same bits.
+struct Avx512;
+
+impl Kernel for Avx512 {
+    #[inline(always)]
+    fn boxes(flat: &FlatTriangles, g: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> (u32, Lanes) {
+        Avx::boxes(flat, g, ray, t_min, t_max)
+    }
+
+    #[inline(always)]
+    fn block(flat: &FlatTriangles, b: usize, ray: &FlatRay, t_min: f32, t_max: f32) -> BlockHits {
+        Avx::block(flat, b, ray, t_min, t_max)
+    }
+
+    #[inline(always)]
+    fn entered(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> (u32, [f32; MAX_BLOCKS]) {
+        // SAFETY: `Avx512` is only used inside the `target_feature(enable = "avx512f")`
+        // functions below, entered after `is_x86_feature_detected!` confirmed AVX-512F; the
+        // rows of the boxes are 64 bytes long and 64-byte aligned.
+        unsafe {
+            let b = &flat.boxes.b;
+            let [o, inv] = [ray.world_origin, ray.inv_dir];
+            let mut near = [_mm512_setzero_ps(); 3];
+            let mut far = [_mm512_setzero_ps(); 3];
+            for k in 0..3 {
+                let (o, inv) = (_mm512_set1_ps(o[k]), _mm512_set1_ps(inv[k]));
+                let t0 = _mm512_mul_ps(_mm512_sub_ps(_mm512_load_ps(b[k].as_ptr()), o), inv);
+                let t1 = _mm512_mul_ps(_mm512_sub_ps(_mm512_load_ps(b[3 + k].as_ptr()), o), inv);
+                (near[k], far[k]) = (_mm512_min_ps(t0, t1), _mm512_max_ps(t0, t1));
+            }
+            let ([nx, ny, nz], [fx, fy, fz]) = (near, far);
+            let near = _mm512_max_ps(_mm512_max_ps(nx, ny), _mm512_max_ps(nz, _mm512_set1_ps(t_min)));
+            let far = _mm512_min_ps(_mm512_min_ps(fx, fy), _mm512_min_ps(fz, _mm512_set1_ps(t_max)));
+            let hit = u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(near, far));
+            let mut out = [0.0f32; MAX_BLOCKS];
+            _mm512_storeu_ps(out.as_mut_ptr(), near);
+            (hit & flat.blocks_mask(), out)
+        }
+    }
+}
+
 /// [`FlatTriangles::closest`] in AVX.
 #[target_feature(enable = "avx")]
 pub fn closest(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> Option<(u32, f32, Vec2)> {
@@ -130,5 +185,63 @@ pub fn closest(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> O
 /// [`FlatTriangles::any`] in AVX.
 #[target_feature(enable = "avx")]
 pub fn any(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
+    any_with::<Avx>(flat, ray, t_min, t_max)
+}
+
+/// [`FlatTriangles::closest`] in AVX with AVX-512's box test.
+#[target_feature(enable = "avx512f")]
+pub fn closest512(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> Option<(u32, f32, Vec2)> {
+    closest_with::<Avx512>(flat, ray, t_min, t_max)
+}
+
+/// [`FlatTriangles::any`] in AVX with AVX-512's box test.
+#[target_feature(enable = "avx512f")]
+pub fn any512(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
+    any_with::<Avx512>(flat, ray, t_min, t_max)
+}
+
+/// [`closest`] with AVX-512's box test, inlined into the caller.
+///
+/// # Safety
+/// Only from a function compiled with AVX-512F (`target_feature`) on a CPU that has it.
+#[inline(always)]
+pub(crate) unsafe fn closest512_inlined(
+    flat: &FlatTriangles,
+    ray: &FlatRay,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, f32, Vec2)> {
+    closest_with::<Avx512>(flat, ray, t_min, t_max)
+}
+
+/// [`any`] with AVX-512's box test, inlined into the caller.
+///
+/// # Safety
+/// As for [`closest512_inlined`].
+#[inline(always)]
+pub(crate) unsafe fn any512_inlined(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
+    any_with::<Avx512>(flat, ray, t_min, t_max)
+}
+
+/// [`closest`], inlined into the caller.
+///
+/// # Safety
+/// Only from a function compiled with AVX (`target_feature`) on a CPU that has it.
+#[inline(always)]
+pub(crate) unsafe fn closest_inlined(
+    flat: &FlatTriangles,
+    ray: &FlatRay,
+    t_min: f32,
+    t_max: f32,
+) -> Option<(u32, f32, Vec2)> {
+    closest_with::<Avx>(flat, ray, t_min, t_max)
+}
+
+/// [`any`], inlined into the caller.
+///
+/// # Safety
+/// As for [`closest_inlined`].
+#[inline(always)]
+pub(crate) unsafe fn any_inlined(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
     any_with::<Avx>(flat, ray, t_min, t_max)
 }
