@@ -101,27 +101,32 @@ impl<'r> Sampler<'r> {
     }
 
     /// A sampler that goes on from `state` (taken by [`Sampler::state`]) with the same stream.
+    #[inline(always)]
     pub fn resume(state: SampleState, rng: &'r mut Rng64) -> Self {
         Self { state, rng }
     }
 
     /// Where this sample stands, to [`Sampler::resume`] it later.
+    #[inline(always)]
     pub fn state(&self) -> SampleState {
         self.state
     }
 
     /// Moves to the pairs of bounce `depth` (0 = the first surface vertex): the light pair,
     /// then the BSDF pair.
+    #[inline(always)]
     pub fn start_bounce(&mut self, depth: u32) {
         self.state.pair = self.state.first_bounce + 2 * depth;
     }
 
     /// The next value in [0, 1) (independent).
+    #[inline(always)]
     pub fn get_1d(&mut self) -> f32 {
         uniform(self.rng)
     }
 
     /// The next pair in [0, 1)^2.
+    #[inline(always)]
     pub fn get_2d(&mut self) -> Vec2 {
         let pair = self.state.pair;
         self.state.pair += 1;
