@@ -34,6 +34,7 @@ fn white_furnace_converges_to_le_over_one_minus_r() {
         let film = go(&scene, &cam, &settings(24, 32, 200, IntegratorKind::Path, 1));
         let expect = le / (1.0 - r);
         let mean = film.mean();
+        eprintln!("white furnace r {r}, Le {le}: mean {mean}, expected {expect}");
         // 24*24*32 = 18k paths; the per-path spread is about the mean, so 1 % is > 5 sigma.
         assert!(
             (mean - Vec3::splat(expect)).abs().max_element() < 0.01 * expect,
@@ -77,6 +78,7 @@ fn point_lit_lambert_sphere_matches_closed_form() {
     for integrator in [IntegratorKind::Path, IntegratorKind::Whitted, IntegratorKind::Distributed] {
         let film = go(&scene, &cam, &settings(w, 16, 4, integrator, 2));
         let mut checked = 0;
+        let mut worst = 0.0f32;
         for y in 0..w {
             for x in 0..w {
                 let corners = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (1.0, 1.0), (0.5, 0.5)].map(|(dx, dy)| {
@@ -95,9 +97,11 @@ fn point_lit_lambert_sphere_matches_closed_form() {
                     "{integrator:?} pixel {x},{y}: {} vs {centre}",
                     got.x
                 );
+                worst = worst.max((got.x - centre).abs() / centre.max(1e-3));
                 checked += 1;
             }
         }
+        eprintln!("Lambert sphere, {integrator:?}: {checked} pixels, largest relative error {worst:.4}");
         assert!(checked > 300, "{checked} pixels checked");
     }
 }
@@ -152,6 +156,7 @@ fn integrators_agree_on_direct_light() {
             .zip(&img.pixels)
             .filter(|(p, q)| (**p - **q).abs().max_element() > 0.02 * p.max_element() + 1e-3)
             .count();
+        eprintln!("point light: {name} mean {b} vs whitted {a}, {off} of {} pixels differ by > 2 %", w * w);
         assert!(off < whitted.pixels.len() / 10, "{name}: {off} pixels differ");
     }
     // Area light: a square lamp above the scene, facing down.
@@ -168,6 +173,7 @@ fn integrators_agree_on_direct_light() {
     let dist = go(&scene2, &cam, &settings(w, 64, 1, IntegratorKind::Distributed, 6));
     let path = go(&scene2, &cam, &settings(w, 64, 1, IntegratorKind::Path, 7));
     let (a, b) = (dist.mean(), path.mean());
+    eprintln!("area light: distributed mean {a} vs path {b}");
     assert!((a - b).abs().max_element() < 0.015 * a.max_element(), "area light: distributed {a} vs path {b}");
 }
 
@@ -199,6 +205,7 @@ fn rmse_falls_by_about_two_from_16_to_64_spp() {
         (mse / 4.0).sqrt()
     };
     let (e16, e64) = (pooled(16), pooled(64));
+    eprintln!("Cornell box RMSE: 16 spp {e16:.5}, 64 spp {e64:.5}, ratio {:.3}", e16 / e64);
     assert!(e16 / e64 >= 1.8, "RMSE 16 spp {e16}, 64 spp {e64}: ratio {}", e16 / e64);
 }
 
