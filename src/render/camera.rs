@@ -105,7 +105,7 @@ impl Camera {
 
     /// The primary ray through image point `film` in `[0,1]^2`, with `lens` in `[0,1)^2`
     /// choosing the point on the aperture (ignored by a pinhole).
-    #[inline]
+    #[inline(always)]
     pub fn ray(&self, film: Vec2, lens: Vec2) -> Ray {
         let sx = (2.0 * film.x - 1.0) * self.tan_half_fov * self.aspect;
         let sy = (1.0 - 2.0 * film.y) * self.tan_half_fov;

@@ -413,6 +413,7 @@ fn tile_loop(
 }
 
 /// Starts sample `lane.sample` of the lane's pixel: its camera ray and a fresh path.
+#[inline(always)]
 fn start_sample(lane: &mut Lane, camera: &Camera, s: &RenderSettings) {
     let has_lens = camera.aperture_radius_m > 0.0;
     let mut sampler = Sampler::new(lane.pixel_seed, lane.sample, has_lens, &mut lane.rng);

@@ -436,7 +436,7 @@ fn pixel_stream(s: &RenderSettings, x: u32, y: u32) -> (Rng64, u32) {
 
 /// The camera ray of a Monte Carlo sample of pixel `(x, y)`: the film pair, jittered inside
 /// the pixel, then the lens pair when the camera has a lens.
-#[inline]
+#[inline(always)]
 fn camera_ray(camera: &Camera, s: &RenderSettings, x: u32, y: u32, sampler: &mut Sampler) -> Ray {
     let o = sampler.get_2d();
     let film = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
