@@ -177,6 +177,55 @@ fn integrators_agree_on_direct_light() {
     assert!((a - b).abs().max_element() < 0.015 * a.max_element(), "area light: distributed {a} vs path {b}");
 }
 
+/// Whitted on spheres against a uniform background `B`, closed-form answers: a perfect
+/// mirror (f0 = 1) shows `B` everywhere; with depth 0 it is black (the recursion stops); a
+/// clear glass ball shows `B` too, up to what the depth cuts off, because the Fresnel weights
+/// of reflection and refraction sum to one, the `1/eta^2` radiance scaling on entry cancels
+/// on exit and total internal reflection loses nothing.
+#[test]
+fn whitted_mirror_and_glass_spheres_return_the_background() {
+    let background = Vec3::new(0.3, 0.5, 0.7);
+    let mut mesh = TriangleMesh::default();
+    let id = mesh.surface_id("ball");
+    let spheres = vec![Sphere::new(Vec3::ZERO, 1.0, id)];
+    let accel = Accel::build(&mesh, spheres.clone(), BuildQuality::default());
+    let cam = Camera::look_at(Vec3::new(0.0, -4.0, 0.0), Vec3::ZERO, Vec3::Z, 35.0, 1.0).unwrap();
+    let w = 32;
+    // Pixels whose centre ray hits the ball.
+    let on_ball: Vec<(u32, u32)> = (0..w * w)
+        .map(|k| (k % w, k / w))
+        .filter(|&(x, y)| {
+            let film = glam::Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / w as f32);
+            spheres[0].intersect(&cam.ray(film, glam::Vec2::ZERO)).is_some()
+        })
+        .collect();
+    assert!(on_ball.len() > 200);
+    let whitted = |bsdf: Bsdf, depth: u32| {
+        let optics = vec![SurfaceOptics { bsdf, emission: Vec3::ZERO }];
+        let scene = RenderScene::from_parts(&accel, &mesh, &spheres, optics, &[], background);
+        go(&scene, &cam, &settings(w, 1, depth, IntegratorKind::Whitted, 0))
+    };
+    let mirror = whitted(Bsdf::Metal { f0: Vec3::ONE, alpha: 0.0 }, 8);
+    let glass = whitted(Bsdf::Dielectric { eta: 1.5, tint: Vec3::ONE }, 40);
+    let cut = whitted(Bsdf::Metal { f0: Vec3::ONE, alpha: 0.0 }, 0);
+    let mut worst = [0.0f32; 2];
+    for &(x, y) in &on_ball {
+        // Border pixels mix ball and background at 1 spp, which changes nothing here.
+        for (k, film) in [&mirror, &glass].into_iter().enumerate() {
+            worst[k] = worst[k].max(((film.get(x, y) - background) / background).abs().max_element());
+        }
+        assert_eq!(cut.get(x, y), Vec3::ZERO, "pixel {x},{y} at depth 0");
+    }
+    eprintln!(
+        "Whitted against background {background}: mirror largest relative error {:.2e}, glass {:.2e} ({} pixels)",
+        worst[0],
+        worst[1],
+        on_ball.len()
+    );
+    assert!(worst[0] < 1e-5, "mirror: {}", worst[0]);
+    assert!(worst[1] < 0.01, "glass: {}", worst[1]);
+}
+
 fn cornell() -> World {
     World::build(scene::load("builtin:cornell_box_classic".as_ref(), &LoadOptions::default()).unwrap())
 }
