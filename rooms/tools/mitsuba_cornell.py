@@ -7,6 +7,10 @@ apt-get install libllvm19 and DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLL
     for s in 5 6 7; do propsim render -o ours64_$s.exr --spp 64 --seed $s; done
     python3 rooms/tools/mitsuba_cornell.py rooms/cornell_box_classic ours_ref.exr ours64_5.exr ours64_6.exr ours64_7.exr
 
+or, for speed alone, alternating with `propsim bench render` so that both see the same machine:
+
+    python3 rooms/tools/mitsuba_cornell.py rooms/cornell_box_classic --alternate ROUNDS target/release/propsim
+
 It times Mitsuba's 64-spp render (median of 5, for each sampler) and prints, for each of
 Mitsuba's samplers and for propsim, the RMSE at 64 spp (pooled over the seeds) against the mean of the two
 references (propsim's and a 1024-spp Mitsuba render).
@@ -50,6 +54,38 @@ for m, c in colours.items():
 def load(sampler):
     scene["sensor"]["sampler"] = {"type": sampler}
     return mi.load_dict(scene)
+
+if sys.argv[2] == "--alternate":
+    import re, statistics, subprocess
+    rounds, propsim = int(sys.argv[3]), sys.argv[4]
+    samplers = {name: load(name) for name in ["multijitter", "ldsampler"]}
+    def mitsuba_speed(sc):
+        """Median of 3 timed 64-spp renders, in M samples/s."""
+        mi.render(sc, spp=4, seed=0)  # JIT warm-up
+        times = []
+        for k in range(3):
+            t = time.time()
+            mi.render(sc, spp=64, seed=7 + k)
+            times.append(time.time() - t)
+        return 256 * 256 * 64 / sorted(times)[1] / 1e6
+    def propsim_speed():
+        # Dr.Jit's worker threads spin for a while after a render; let them go idle first.
+        time.sleep(3)
+        out = subprocess.run([propsim, "bench", "render", "--repeat", "3"], capture_output=True, text=True).stdout
+        return float(re.search(r"samples/s\s+([0-9.]+)", out).group(1))
+    ratios = {name: [] for name in samplers}
+    for r in range(rounds):
+        before = propsim_speed()
+        theirs = {name: mitsuba_speed(sc) for name, sc in samplers.items()}
+        after = propsim_speed()
+        ours = (before + after) / 2
+        print(f"round {r}: propsim {before:.2f} / {after:.2f}, mitsuba "
+              + ", ".join(f"{n} {v:.2f}" for n, v in theirs.items()), "M samples/s", flush=True)
+        for name, v in theirs.items():
+            ratios[name].append(ours / v)
+    for name, v in ratios.items():
+        print(f"speed propsim / mitsuba {name}: median {statistics.median(v):.3f}, range {min(v):.3f}-{max(v):.3f}")
+    sys.exit(0)
 
 s = load("independent")
 render = lambda spp, seed, sc=None: np.array(mi.render(sc or s, spp=spp, seed=seed))[..., :3]
