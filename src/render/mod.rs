@@ -560,3 +560,42 @@ pub fn render_world(world: &World, settings: &RenderSettings) -> Result<RenderOu
     let camera = scene_camera(world, settings.width as f32 / settings.height as f32)?;
     render(&scene, &camera, settings, &|_| {})
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::load::Surface;
+    use crate::scene::obj::MtlEntry;
+
+    /// The MTL keys map to the documented optics: `Kd` Lambert, `Ks`/`Ns` a rough metal
+    /// (alpha = sqrt(2 / (Ns + 2))), `d < 1` or illum 4-9 glass of index `Ni`, `Ke` emission.
+    #[test]
+    fn mtl_entries_become_the_documented_optics() {
+        let optics = |mtl: MtlEntry| {
+            SurfaceOptics::from_surface(&Surface { name: "s".into(), material: None, mtl: Some(mtl) })
+        };
+        let lambert = optics(MtlEntry { diffuse: Some([0.8, 0.1, 0.1]), ..MtlEntry::default() });
+        assert_eq!(lambert.bsdf, Bsdf::Lambert { albedo: Vec3::new(0.8, 0.1, 0.1) });
+        assert_eq!(lambert.emission, Vec3::ZERO);
+        let metal = optics(MtlEntry {
+            diffuse: Some([0.1; 3]),
+            specular: Some([0.9, 0.8, 0.5]),
+            shininess: Some(48.0),
+            ..MtlEntry::default()
+        });
+        assert_eq!(metal.bsdf, Bsdf::Metal { f0: Vec3::new(0.9, 0.8, 0.5), alpha: (2.0f32 / 50.0).sqrt() });
+        for glass in [
+            MtlEntry { dissolve: Some(0.2), optical_density: Some(1.33), ..MtlEntry::default() },
+            MtlEntry { illumination_model: Some(7), optical_density: Some(1.33), ..MtlEntry::default() },
+        ] {
+            assert_eq!(optics(glass).bsdf, Bsdf::Dielectric { eta: 1.33, tint: Vec3::ONE });
+        }
+        let lamp = optics(MtlEntry {
+            diffuse: Some([0.0; 3]),
+            emission: Some([17.0, 12.0, 4.0]),
+            ..MtlEntry::default()
+        });
+        assert_eq!(lamp.emission, Vec3::new(17.0, 12.0, 4.0));
+        assert_eq!(lamp.bsdf, Bsdf::Lambert { albedo: Vec3::ZERO });
+    }
+}
