@@ -12,7 +12,7 @@ use super::flat::FlatRay;
 #[cfg(target_arch = "x86_64")]
 use super::flat::{FlatTriangles, avx};
 #[cfg(target_arch = "x86_64")]
-use super::traverse::FlatKernel;
+use super::traverse::Isa;
 use super::{MeshBvh, Ray};
 
 /// The queries a [`QueryLoop`] may make.
@@ -58,13 +58,7 @@ impl<const WIDE: bool> Queries for Inlined<'_, WIDE> {
     fn closest(&self, ray: &Ray, flat_ray: &FlatRay) -> Option<(u32, f32)> {
         // SAFETY: `Inlined` values are only made in the entry points below, compiled with
         // AVX (and AVX-512F when `WIDE`) and entered after the CPU was found to have them.
-        let closest = unsafe {
-            if WIDE {
-                avx::closest512_inlined(self.flat, flat_ray, ray.t_min, ray.t_max)
-            } else {
-                avx::closest_inlined(self.flat, flat_ray, ray.t_min, ray.t_max)
-            }
-        };
+        let closest = unsafe { avx::closest_inlined::<WIDE>(self.flat, flat_ray, ray.t_min, ray.t_max) };
         closest.map(|(slot, t, _)| (self.mesh_index[slot as usize], t))
     }
 
@@ -72,13 +66,7 @@ impl<const WIDE: bool> Queries for Inlined<'_, WIDE> {
     fn occluded(&self, ray: &Ray) -> bool {
         let flat_ray = FlatRay::new(ray.origin, ray.dir);
         // SAFETY: as in `closest`.
-        unsafe {
-            if WIDE {
-                avx::any512_inlined(self.flat, &flat_ray, ray.t_min, ray.t_max)
-            } else {
-                avx::any_inlined(self.flat, &flat_ray, ray.t_min, ray.t_max)
-            }
-        }
+        unsafe { avx::any_inlined::<WIDE>(self.flat, &flat_ray, ray.t_min, ray.t_max) }
     }
 }
 
@@ -91,11 +79,11 @@ impl MeshBvh {
             // SAFETY: the traversal picks a kernel only when the CPU has its instruction sets
             // (`is_x86_feature_detected!`), which the entry point's `target_feature` names.
             unsafe {
-                match self.traverser().flat_kernel() {
-                    FlatKernel::Portable => {}
-                    FlatKernel::Avx => return run_avx(Inlined::<false> { flat, mesh_index }, body),
-                    FlatKernel::Avx2 => return run_avx2(Inlined::<false> { flat, mesh_index }, body),
-                    FlatKernel::Avx512 => return run_avx512(Inlined::<true> { flat, mesh_index }, body),
+                match self.traverser().isa() {
+                    Isa::Scalar => {}
+                    Isa::Avx => return run_avx(Inlined::<false> { flat, mesh_index }, body),
+                    Isa::Avx2 => return run_avx2(Inlined::<false> { flat, mesh_index }, body),
+                    Isa::Avx512 => return run_avx512(Inlined::<true> { flat, mesh_index }, body),
                 }
             }
         }

@@ -332,30 +332,17 @@ impl Stack<'_> {
     }
 }
 
-/// Which kernel a flat mesh's queries use ([`super::flat`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum FlatKernel {
-    Portable,
-    /// AVX (the CPU has FMA, SSE4.1 and POPCNT too).
-    #[cfg(target_arch = "x86_64")]
-    Avx,
-    /// AVX, on a CPU that has AVX2 and BMI1 too.
-    #[cfg(target_arch = "x86_64")]
-    Avx2,
-    /// AVX with AVX-512F's box test (and AVX2).
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
-}
-
 /// Which node test the traversal uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-enum Isa {
+pub(crate) enum Isa {
     Scalar,
+    /// AVX, FMA, SSE4.1 and POPCNT.
     #[cfg(target_arch = "x86_64")]
     Avx,
+    /// Those and AVX2 and BMI1.
     #[cfg(target_arch = "x86_64")]
     Avx2,
-    /// AVX2's node tests; a flat mesh's 16 block boxes in one AVX-512 test.
+    /// Those and AVX-512F: AVX2's node tests; a flat mesh's 16 block boxes in one test.
     #[cfg(target_arch = "x86_64")]
     Avx512,
 }
@@ -473,17 +460,9 @@ impl Traverser {
         self.stream
     }
 
-    /// The widest flat-mesh kernel this traversal may use.
-    pub(crate) fn flat_kernel(&self) -> FlatKernel {
-        match self.isa {
-            Isa::Scalar => FlatKernel::Portable,
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx => FlatKernel::Avx,
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => FlatKernel::Avx2,
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx512 => FlatKernel::Avx512,
-        }
+    /// The instruction set this traversal uses.
+    pub(crate) fn isa(&self) -> Isa {
+        self.isa
     }
 
     /// Every traversal this CPU can run, the portable one first: for tests of one against

@@ -200,48 +200,35 @@ pub fn any512(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bo
     any_with::<Avx512>(flat, ray, t_min, t_max)
 }
 
-/// [`closest`] with AVX-512's box test, inlined into the caller.
+/// [`closest`] inlined into the caller, with AVX-512's box test when `WIDE`.
 ///
 /// # Safety
-/// Only from a function compiled with AVX-512F (`target_feature`) on a CPU that has it.
+/// Only from a function compiled with AVX (`target_feature`), and AVX-512F when `WIDE`, on a
+/// CPU that has them.
 #[inline(always)]
-pub(crate) unsafe fn closest512_inlined(
+pub(crate) unsafe fn closest_inlined<const WIDE: bool>(
     flat: &FlatTriangles,
     ray: &FlatRay,
     t_min: f32,
     t_max: f32,
 ) -> Option<(u32, f32, Vec2)> {
-    closest_with::<Avx512>(flat, ray, t_min, t_max)
+    if WIDE {
+        closest_with::<Avx512>(flat, ray, t_min, t_max)
+    } else {
+        closest_with::<Avx>(flat, ray, t_min, t_max)
+    }
 }
 
-/// [`any`] with AVX-512's box test, inlined into the caller.
-///
-/// # Safety
-/// As for [`closest512_inlined`].
-#[inline(always)]
-pub(crate) unsafe fn any512_inlined(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
-    any_with::<Avx512>(flat, ray, t_min, t_max)
-}
-
-/// [`closest`], inlined into the caller.
-///
-/// # Safety
-/// Only from a function compiled with AVX (`target_feature`) on a CPU that has it.
-#[inline(always)]
-pub(crate) unsafe fn closest_inlined(
-    flat: &FlatTriangles,
-    ray: &FlatRay,
-    t_min: f32,
-    t_max: f32,
-) -> Option<(u32, f32, Vec2)> {
-    closest_with::<Avx>(flat, ray, t_min, t_max)
-}
-
-/// [`any`], inlined into the caller.
+/// [`any`] inlined into the caller, with AVX-512's box test when `WIDE`.
 ///
 /// # Safety
 /// As for [`closest_inlined`].
 #[inline(always)]
-pub(crate) unsafe fn any_inlined(flat: &FlatTriangles, ray: &FlatRay, t_min: f32, t_max: f32) -> bool {
-    any_with::<Avx>(flat, ray, t_min, t_max)
+pub(crate) unsafe fn any_inlined<const WIDE: bool>(
+    flat: &FlatTriangles,
+    ray: &FlatRay,
+    t_min: f32,
+    t_max: f32,
+) -> bool {
+    if WIDE { any_with::<Avx512>(flat, ray, t_min, t_max) } else { any_with::<Avx>(flat, ray, t_min, t_max) }
 }
