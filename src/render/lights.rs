@@ -304,6 +304,7 @@ mod tests {
             e += ls.li.x * ls.wi.z / ls.pdf;
         }
         let expect = PI * 0.25 / 4.0;
+        eprintln!("sphere light irradiance: {} against pi Le (r/d)^2 = {expect}", e / n as f32);
         assert!((e / n as f32 - expect).abs() < 0.01 * expect, "{} vs {expect}", e / n as f32);
         // Square light 2 x 2 at height 1 facing down, as two triangles: E = Le * 4 * F, with the
         // point-to-parallel-rectangle form factor, corner formula summed over four quadrants.
@@ -330,6 +331,7 @@ mod tests {
         // F = 1/(2 pi) [a/sqrt(1+a^2) atan(b/sqrt(1+a^2)) + b/sqrt(1+b^2) atan(a/sqrt(1+b^2))].
         let f = (1.0 / (2.0 * PI)) * 2.0 * (1.0 / 2f32.sqrt()) * (1.0 / 2f32.sqrt()).atan();
         let expect = PI * 4.0 * f;
+        eprintln!("quad light irradiance: {} against the form factor's {expect}", e / n as f32);
         assert!((e / n as f32 - expect).abs() < 0.01 * expect, "{} vs {expect}", e / n as f32);
     }
 
