@@ -6,11 +6,12 @@
 //! pixel's samples, and every bounce runs as three phases over the lanes: their closest hits,
 //! one after another (independent queries that the processor overlaps); their shading, as
 //! eight-wide array code (which the compiler vectorises in part); their shadow rays and next
-//! rays. The
-//! arithmetic is that of [`super::path::trace`] step for step, and each pixel still draws
-//! from its own random stream in the same order, so the image is the scalar integrator's bit
-//! for bit (tested): only the order of the work changes (the wavefront idea of Laine, Karras
-//! and Aila 2013, "Megakernels considered harmful", on a CPU's vector lanes).
+//! rays. The arithmetic is that of [`super::path::trace`] step for step, and each pixel still
+//! draws from its own random stream in the same order, so the image is the scalar
+//! integrator's bit for bit (tested): only the order of the work changes (the wavefront idea
+//! of Laine, Karras and Aila 2013, "Megakernels considered harmful", on a CPU's vector
+//! lanes). The whole loop, queries, shading and sampling, is compiled for the CPU's best
+//! instruction set through [`crate::core::queries`].
 
 use std::f32::consts::{FRAC_1_PI, PI};
 
