@@ -792,36 +792,53 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
         let (hits, tnear) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
         prefetch_ahead(nodes, node, hits, |first, count| visitor.prefetch(first, count));
-        let n = hits.count_ones() as usize;
-        let mut order = [(0u32, 0.0f32); 8];
-        let mut rest = hits;
-        for k in 0..n {
-            let slot = rest.trailing_zeros() as usize;
-            rest &= rest - 1;
+        let item = |slot: usize| {
             let id = if imask & (1 << slot) != 0 {
                 node.child(slot)
             } else {
                 let (first, count) = node.leaf(slot);
                 LEAF_FLAG | count << 29 | first
             };
-            let item = (id, tnear[slot]);
-            let mut j = k;
-            while j > 0 && order[j - 1].1 < item.1 {
-                order[j] = order[j - 1];
-                j -= 1;
+            (id, tnear[slot])
+        };
+        // The nearest item is next (what a push and a pop would give: it is entered before
+        // `t_max`); the others go on the stack, farthest first. One or two hits, the common
+        // cases, take no sorting loop.
+        match hits.count_ones() {
+            0 => {}
+            1 => {
+                c.current = item(hits.trailing_zeros() as usize).0;
+                return true;
             }
-            order[j] = item;
-        }
-        if n > 0 && order[n - 1].0 & LEAF_FLAG == 0 {
-            // The nearest child is a node: it is next (what a push and a pop would give).
-            for &(id, t) in &order[..n - 1] {
-                stack.push(id, t);
+            2 => {
+                let a = item(hits.trailing_zeros() as usize);
+                let b = item((31 - hits.leading_zeros()) as usize);
+                let (far, near) = if a.1 < b.1 { (b, a) } else { (a, b) };
+                stack.push(far.0, far.1);
+                c.current = near.0;
+                return true;
             }
-            c.current = order[n - 1].0;
-            return true;
-        }
-        for &(id, t) in &order[..n] {
-            stack.push(id, t);
+            n => {
+                let n = n as usize;
+                let mut order = [(0u32, 0.0f32); 8];
+                let mut rest = hits;
+                for k in 0..n {
+                    let slot = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    let item = item(slot);
+                    let mut j = k;
+                    while j > 0 && order[j - 1].1 < item.1 {
+                        order[j] = order[j - 1];
+                        j -= 1;
+                    }
+                    order[j] = item;
+                }
+                for &(id, t) in &order[..n - 1] {
+                    stack.push(id, t);
+                }
+                c.current = order[n - 1].0;
+                return true;
+            }
         }
     }
     loop {
