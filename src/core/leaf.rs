@@ -105,9 +105,11 @@ impl LeafTriangles {
     /// A hint to start loading the leaf `(first, count)` into the cache.
     #[inline(always)]
     pub fn prefetch(&self, first: u32, count: u32) {
+        // Up to 108 bytes: three cache lines when unaligned.
         let (a, b) = (9 * first as usize, 9 * (first + count) as usize - 1);
         if let (Some(x), Some(y)) = (self.data.get(a), self.data.get(b)) {
             prefetch(x);
+            prefetch(&self.data[(a + 16).min(b)]);
             prefetch(y);
         }
     }
