@@ -94,37 +94,33 @@ fn cost(
         (cost(nodes, decisions, a, max_prims, level + 1), cost(nodes, decisions, b, max_prims, level + 1))
     };
     let prims = pa + pb;
+    // spread[j]: the cheapest split of j + 2 slots between the children (ca[k] + cb[j - k]),
+    // and the first k that gives it. Branch-free: which split wins is not predictable.
+    let mut spread = [f32::INFINITY; 7];
+    let mut spread_k = [0usize; 7];
+    for k in 0..7 {
+        for j in k..7 {
+            let c = ca[k] + cb[j - k];
+            let better = c < spread[j];
+            spread[j] = if better { c } else { spread[j] };
+            spread_k[j] = if better { k } else { spread_k[j] };
+        }
+    }
     let mut costs = [0.0f32; 7];
     let mut packed = [0u8; 7];
     // One slot: a leaf, or a wide node whose children spread over 8 slots.
     let cost_leaf = if prims <= max_prims { prims as f32 * half_area * PRIM_COST } else { f32::INFINITY };
-    let (mut cost_spread, mut left, mut right) = (f32::INFINITY, 0, 0);
-    for k in 0..7 {
-        let c = ca[k] + cb[6 - k];
-        if c < cost_spread {
-            (cost_spread, left, right) = (c, k, 6 - k);
-        }
-    }
-    let cost_internal = cost_spread + half_area;
+    let (left, right) = (spread_k[6], 6 - spread_k[6]);
+    let cost_internal = spread[6] + half_area;
     let kind = if cost_leaf < cost_internal { LEAF } else { INTERNAL };
     costs[0] = cost_leaf.min(cost_internal);
     packed[0] = pack(kind, left, right);
     // i + 1 slots: as with i slots, or spread over the two children.
     for i in 1..7 {
-        let mut best = costs[i - 1];
-        let mut spread = None;
-        for k in 0..i {
-            let c = ca[k] + cb[i - k - 1];
-            if c < best {
-                best = c;
-                spread = Some((k, i - k - 1));
-            }
-        }
-        costs[i] = best;
-        packed[i] = match spread {
-            Some((l, r)) => pack(DISTRIBUTE, l, r),
-            None => packed[i - 1],
-        };
+        let (c, k) = (spread[i - 1], spread_k[i - 1]);
+        let better = c < costs[i - 1];
+        costs[i] = if better { c } else { costs[i - 1] };
+        packed[i] = if better { pack(DISTRIBUTE, k, i - k - 1) } else { packed[i - 1] };
     }
     let word = packed.iter().enumerate().fold(0u64, |w, (i, &d)| w | u64::from(d) << (8 * i));
     decisions[n].store(word, Relaxed);
