@@ -189,7 +189,13 @@ impl MeshBvh {
     #[inline(always)]
     fn closest_visitor(&self, ray: &Ray) -> ClosestTriangle<'_> {
         let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
-        ClosestTriangle { leaves: &self.leaves, mesh_index: &self.mesh_index, shear, t_min: ray.t_min, best: None }
+        ClosestTriangle {
+            leaves: &self.leaves,
+            mesh_index: &self.mesh_index,
+            shear,
+            t_min: ray.t_min,
+            best: None,
+        }
     }
 
     /// The leaf test of an occlusion query for `ray`.
