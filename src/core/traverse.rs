@@ -820,25 +820,8 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
                 c.current = near.0;
                 return true;
             }
-            n => {
-                let n = n as usize;
-                let mut order = [(0u32, 0.0f32); 8];
-                let mut rest = hits;
-                for k in 0..n {
-                    let slot = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    let item = item(slot);
-                    let mut j = k;
-                    while j > 0 && order[j - 1].1 < item.1 {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = item;
-                }
-                for &(id, t) in &order[..n - 1] {
-                    stack.push(id, t);
-                }
-                c.current = order[n - 1].0;
+            _ => {
+                c.current = push_all_but_nearest(hits, item, stack);
                 return true;
             }
         }
@@ -853,6 +836,31 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
             Some(_) => {}
         }
     }
+}
+
+/// Sorts the items `item(slot)` (id, entry distance) of the slots in `mask` (at least two)
+/// by distance, pushes all but the nearest, farthest first, and returns the nearest's id,
+/// to be visited next. Ties keep slot order (the later slot counts as nearer).
+#[inline(always)]
+fn push_all_but_nearest(mask: u32, item: impl Fn(usize) -> (u32, f32), stack: &mut Stack<'_>) -> u32 {
+    let n = mask.count_ones() as usize;
+    let mut order = [(0u32, 0.0f32); 8];
+    let mut rest = mask;
+    for k in 0..n {
+        let slot = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let item = item(slot);
+        let mut j = k;
+        while j > 0 && order[j - 1].1 < item.1 {
+            order[j] = order[j - 1];
+            j -= 1;
+        }
+        order[j] = item;
+    }
+    for &(id, t) in &order[..n - 1] {
+        stack.push(id, t);
+    }
+    order[n - 1].0
 }
 
 /// Starts loading the leaf or node that a cursor will visit next.
@@ -967,26 +975,8 @@ fn closest_loop<T: NodeTest, N: WideBvhNode>(
                 current = node.child(inner.trailing_zeros() as usize);
                 continue;
             }
-            n => {
-                // Sort the children by entry distance, farthest first, and push all but the
-                // nearest, which is visited next.
-                let mut order = [(0u32, 0.0f32); 8];
-                let n = n as usize;
-                for k in 0..n {
-                    let slot = inner.trailing_zeros() as usize;
-                    inner &= inner - 1;
-                    let item = (node.child(slot), tnear[slot]);
-                    let mut j = k;
-                    while j > 0 && order[j - 1].1 < item.1 {
-                        order[j] = order[j - 1];
-                        j -= 1;
-                    }
-                    order[j] = item;
-                }
-                for &(c, t) in &order[..n - 1] {
-                    stack.push(c, t);
-                }
-                current = order[n - 1].0;
+            _ => {
+                current = push_all_but_nearest(inner, |slot| (node.child(slot), tnear[slot]), &mut stack);
                 continue;
             }
         }
