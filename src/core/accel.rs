@@ -27,7 +27,7 @@ use super::mesh::TriangleMesh;
 use super::ray::Ray;
 use super::sphere::Sphere;
 use super::traverse::prefetch;
-use super::traverse::{AnyLeaves, ClosestLeaves, NodeRay, Traverser, leaf_ranges};
+use super::traverse::{AnyLeaves, ClosestLeaves, GROUP_WIDTH, NodeRay, Traverser, leaf_ranges};
 use super::triangle::RayShear;
 
 /// BVH build quality presets, from obvhs.
@@ -99,6 +99,8 @@ pub struct MeshBvh {
     /// Small meshes: all triangles in blocks, tested without the tree (`nodes` is empty and
     /// `leaves` holds one triangle a leaf, in the blocks' slot order).
     flat: Option<FlatTriangles>,
+    /// Largest side of the root box (m): the scale of [`split_coherent`]'s origin test.
+    size_m: f32,
 }
 
 /// Stage times of a build, printed to stderr when this variable is set.
@@ -127,6 +129,7 @@ impl MeshBvh {
             surface: mesh_index.iter().map(|&i| mesh.surface_of_triangle[i as usize]).collect(),
             mesh_index,
             flat: Some(flat),
+            size_m: 0.0,
         }
     }
 
@@ -174,7 +177,10 @@ impl MeshBvh {
         stage("leaves");
         let traverser = Traverser::new(&nodes);
         stage("traverser");
-        Self { nodes, traverser, leaves, mesh_index, surface, flat: None }
+        // The root's child planes span 255 steps of 2^e on each axis.
+        let size_m =
+            nodes[0].e.iter().map(|&e| f32::from_bits(u32::from(e) << 23) * 255.0).fold(0.0, f32::max);
+        Self { nodes, traverser, leaves, mesh_index, surface, flat: None, size_m }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -315,11 +321,19 @@ impl MeshBvh {
             out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.occluded(r));
             return;
         }
+        let (grouped, alone) = split_coherent(rays, self.size_m);
+        let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i]));
+        self.traverser.any_groups(
+            &self.nodes,
+            grouped.len(),
+            |k| start(grouped[k] as usize),
+            |k, hit| out[grouped[k] as usize] = hit,
+        );
         self.traverser.any_stream(
             &self.nodes,
-            rays.len(),
-            |i| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i])),
-            |i, hit| out[i] = hit,
+            alone.len(),
+            |k| start(alone[k] as usize),
+            |k, hit| out[alone[k] as usize] = hit,
         );
     }
 
@@ -598,6 +612,36 @@ fn chunked<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&[Ray], &mut [T])
     out
 }
 
+/// Directions of a coherent group differ by at most this much in each component.
+const COHERENT_DIRECTION_SPREAD: f32 = 0.25;
+/// Origins of a coherent group lie in a box whose sides are at most this fraction of the
+/// scene's size.
+const COHERENT_ORIGIN_SPREAD: f32 = 1.0 / 16.0;
+
+/// Splits a batch into the rays of coherent groups (runs of [`GROUP_WIDTH`] consecutive rays
+/// with nearly parallel directions and nearby origins, such as camera rays or shadow rays of
+/// neighbouring pixels), traced group by group ([`Traverser::any_groups`]), and the others,
+/// traced as a stream of single rays. Measured on the 1M-triangle benchmark (2 threads,
+/// Mrays/s occlusion): groups 11.5 against 7.3 on the coherent rays that hit, but 5.4
+/// against 10.8 on incoherent rays, where groups share hardly any node.
+fn split_coherent(rays: &[Ray], size_m: f32) -> (Vec<u32>, Vec<u32>) {
+    let (mut grouped, mut alone) = (Vec::new(), Vec::new());
+    for (k, group) in rays.chunks(GROUP_WIDTH).enumerate() {
+        let first = rays[k * GROUP_WIDTH];
+        let (mut dir_lo, mut dir_hi, mut org_lo, mut org_hi) =
+            (first.dir, first.dir, first.origin, first.origin);
+        for r in group {
+            (dir_lo, dir_hi) = (dir_lo.min(r.dir), dir_hi.max(r.dir));
+            (org_lo, org_hi) = (org_lo.min(r.origin), org_hi.max(r.origin));
+        }
+        let coherent = (dir_hi - dir_lo).max_element() <= COHERENT_DIRECTION_SPREAD
+            && (org_hi - org_lo).max_element() <= COHERENT_ORIGIN_SPREAD * size_m;
+        let ids = (k * GROUP_WIDTH) as u32..(k * GROUP_WIDTH + group.len()) as u32;
+        if coherent { grouped.extend(ids) } else { alone.extend(ids) }
+    }
+    (grouped, alone)
+}
+
 /// Fixed, irrational-looking directions for inside tests: they rarely graze edges.
 const PARITY_DIRECTIONS: [[f32; 3]; 5] = [
     [0.5773, 0.5774, 0.5776],
@@ -751,8 +795,9 @@ mod tests {
     }
 
     fn compare(portable: &MeshBvh, simd: &MeshBvh) {
-        // Streams give every ray the answer of its single-ray query, for every traversal.
-        let rays: Vec<Ray> = (0..5_000u64)
+        // Streams and groups give every ray the answer of its single-ray query, for every
+        // traversal.
+        let mut rays: Vec<Ray> = (0..5_000u64)
             .map(|k| {
                 let mut r = stream(4, 2, k);
                 let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 44.0 - 22.0;
@@ -760,6 +805,29 @@ mod tests {
                 Ray::segment(o, d, 5.0 + 40.0 * uniform(&mut r))
             })
             .collect();
+        rays.truncate(rays.len() / GROUP_WIDTH * GROUP_WIDTH);
+        let random = rays.len();
+        // Camera rays, 64 x 64 pixels over 23 degrees from three eyes towards the centre: the
+        // coherent groups; every third ray a segment that may end short of the hit.
+        for (e, eye) in [Vec3::new(-30.0, -30.0, 25.0), Vec3::new(28.0, -5.0, 2.0), Vec3::new(0.5, 0.3, 0.2)]
+            .into_iter()
+            .enumerate()
+        {
+            let forward = (Vec3::new(-1.0, 2.0, 0.5) - eye).normalize();
+            let right = forward.cross(Vec3::Z).normalize();
+            let up = right.cross(forward);
+            for k in 0..64 * 64 {
+                let (i, j) = ((k % 64) as f32, (k / 64) as f32);
+                let (u, v) = ((i + 0.5) / 32.0 - 1.0, (j + 0.5) / 32.0 - 1.0);
+                let dir = (forward + 0.2 * (u * right + v * up)).normalize();
+                let length = 10.0 + 30.0 * ((k * 7 + e) % 11) as f32 / 10.0;
+                rays.push(if k % 3 == 0 { Ray::segment(eye, dir, length) } else { Ray::new(eye, dir) });
+            }
+        }
+        let size_m = if portable.nodes.is_empty() { 50.0 } else { portable.size_m };
+        let (grouped, alone) = split_coherent(&rays, size_m);
+        assert!(grouped.iter().all(|&i| i as usize >= random) && grouped.len() == rays.len() - random);
+        assert!(alone.iter().all(|&i| (i as usize) < random));
         for bvh in [portable, simd] {
             let mut triangles = vec![None; rays.len()];
             let mut hits = vec![None; rays.len()];

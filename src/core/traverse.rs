@@ -15,6 +15,9 @@
 //! rounding of the slab distances. A direction component of -0.0 is turned into +0.0 first,
 //! so the near side of every slab agrees with the sign of the inverse direction.
 
+mod group;
+pub use group::GROUP_WIDTH;
+
 use std::mem::{MaybeUninit, offset_of};
 
 use super::flat::{FlatRay, FlatTriangles};
@@ -624,6 +627,61 @@ impl Traverser {
         })
     }
 }
+
+impl Traverser {
+    /// Any-hit traversal of rays `0..count` in groups of [`group::GROUP_WIDTH`] consecutive
+    /// rays, each group walking the tree once ([`group::any_group_loop`]); `finish(i, hit)`
+    /// gets each answer, the same as [`Traverser::any`]'s.
+    pub fn any_groups<V: AnyLeaves>(
+        &self,
+        nodes: &[CwBvhNode],
+        count: usize,
+        start: impl FnMut(usize) -> (NodeRay, f32, V),
+        mut finish: impl FnMut(usize, bool),
+    ) {
+        if nodes.is_empty() {
+            (0..count).for_each(|i| finish(i, false));
+            return;
+        }
+        let mut groups: [group::Group<V>; group::GROUPS_IN_FLIGHT] =
+            std::array::from_fn(|_| group::Group::new(self.stack_len));
+        match self.isa {
+            Isa::Scalar => group::any_groups_loop::<group::EachRay<ScalarTest>, V>(
+                nodes,
+                count,
+                start,
+                finish,
+                &mut groups,
+            ),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => unsafe { any_groups_avx(nodes, count, start, finish, &mut groups) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
+            // FMA, BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => unsafe { any_groups_avx2(nodes, count, start, finish, &mut groups) },
+        }
+    }
+}
+
+/// [`group::any_groups_loop`] compiled for one instruction set.
+macro_rules! group_entry_point {
+    ($features:literal, $test:ty, $name:ident) => {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $name<V: AnyLeaves>(
+            nodes: &[CwBvhNode],
+            count: usize,
+            start: impl FnMut(usize) -> (NodeRay, f32, V),
+            finish: impl FnMut(usize, bool),
+            groups: &mut [group::Group<V>; group::GROUPS_IN_FLIGHT],
+        ) {
+            group::any_groups_loop::<$test, V>(nodes, count, start, finish, groups)
+        }
+    };
+}
+group_entry_point!("avx,fma,sse4.1,popcnt", group::EachRay<avx::AvxTest<false>>, any_groups_avx);
+group_entry_point!("avx2,fma,bmi1,popcnt", group::Avx2Group, any_groups_avx2);
 
 impl Traverser {
     /// [`FlatTriangles::closest`], 8 lanes wide where the CPU has AVX.
