@@ -285,11 +285,19 @@ impl MeshBvh {
     /// Closest hits of many rays traced as one stream ([`Traverser::closest_stream`]):
     /// `out(i, lane)` gets ray `i`'s closest leaf lane.
     fn closest_lanes_stream(&self, rays: &[Ray], mut out: impl FnMut(usize, Option<ClosestLane>)) {
+        let (grouped, alone) = split_coherent(rays, self.size_m);
+        let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i]));
+        self.traverser.closest_groups(
+            &self.nodes,
+            grouped.len(),
+            |k| start(grouped[k] as usize),
+            |k, visitor| out(grouped[k] as usize, visitor.best),
+        );
         self.traverser.closest_stream(
             &self.nodes,
-            rays.len(),
-            |i| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i])),
-            |i, visitor| out(i, visitor.best),
+            alone.len(),
+            |k| start(alone[k] as usize),
+            |k, visitor| out(alone[k] as usize, visitor.best),
         );
     }
 

@@ -664,12 +664,51 @@ impl Traverser {
     }
 }
 
-/// [`group::any_groups_loop`] compiled for one instruction set.
-macro_rules! group_entry_point {
-    ($features:literal, $test:ty, $name:ident) => {
+impl Traverser {
+    /// Closest-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive
+    /// rays ([`group::closest_groups_loop`]): `start(i)` gives ray `i`'s node constants,
+    /// distance limit and leaf test, and `finish(i, leaves)` receives the leaf test back.
+    pub fn closest_groups<V: ClosestLeaves>(
+        &self,
+        nodes: &[CwBvhNode],
+        count: usize,
+        mut start: impl FnMut(usize) -> (NodeRay, f32, V),
+        mut finish: impl FnMut(usize, V),
+    ) {
+        if nodes.is_empty() {
+            (0..count).for_each(|i| finish(i, start(i).2));
+            return;
+        }
+        let mut groups: [group::Group<V>; group::GROUPS_IN_FLIGHT] =
+            std::array::from_fn(|_| group::Group::new(self.stack_len));
+        match self.isa {
+            Isa::Scalar => group::closest_groups_loop::<group::EachRay<ScalarTest>, V>(
+                nodes,
+                count,
+                start,
+                finish,
+                &mut groups,
+            ),
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => unsafe { closest_groups_avx(nodes, count, start, finish, &mut groups) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
+            // FMA, BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => unsafe {
+                closest_groups_avx2(nodes, count, start, finish, &mut groups)
+            },
+        }
+    }
+}
+
+/// [`group::any_groups_loop`] and [`group::closest_groups_loop`] compiled for one
+/// instruction set.
+macro_rules! group_entry_points {
+    ($features:literal, $test:ty, $any:ident, $closest:ident) => {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        fn $name<V: AnyLeaves>(
+        fn $any<V: AnyLeaves>(
             nodes: &[CwBvhNode],
             count: usize,
             start: impl FnMut(usize) -> (NodeRay, f32, V),
@@ -678,10 +717,28 @@ macro_rules! group_entry_point {
         ) {
             group::any_groups_loop::<$test, V>(nodes, count, start, finish, groups)
         }
+
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $closest<V: ClosestLeaves>(
+            nodes: &[CwBvhNode],
+            count: usize,
+            start: impl FnMut(usize) -> (NodeRay, f32, V),
+            finish: impl FnMut(usize, V),
+            groups: &mut [group::Group<V>; group::GROUPS_IN_FLIGHT],
+        ) {
+            group::closest_groups_loop::<$test, V>(nodes, count, start, finish, groups)
+        }
     };
 }
-group_entry_point!("avx,fma,sse4.1,popcnt", group::EachRay<avx::AvxTest<false>>, any_groups_avx);
-group_entry_point!("avx2,fma,bmi1,popcnt", group::Avx2Group, any_groups_avx2);
+
+group_entry_points!(
+    "avx,fma,sse4.1,popcnt",
+    group::EachRay<avx::AvxTest<false>>,
+    any_groups_avx,
+    closest_groups_avx
+);
+group_entry_points!("avx2,fma,bmi1,popcnt", group::Avx2Group, any_groups_avx2, closest_groups_avx2);
 
 impl Traverser {
     /// [`FlatTriangles::closest`], 8 lanes wide where the CPU has AVX.

@@ -1,14 +1,19 @@
-//! Any-hit traversal of a group of up to [`GROUP_WIDTH`] rays at once: one walk of the tree
-//! in which every stack entry carries the mask of rays still to visit it (the masked ray
+//! Traversal of a group of up to [`GROUP_WIDTH`] rays at once: one walk of the tree in
+//! which every stack entry carries the mask of rays still to visit it (the masked ray
 //! streams of Embree, after Tsakok 2009 and Fuetterling et al. 2015). A node is fetched once
 //! for all the rays that reach it and each of them tests its eight boxes with the single-ray
 //! node test, so a coherent group (camera rays, or shadow rays of neighbouring pixels) shares
-//! the node loads and the stack work that a ray alone pays for by itself. A ray leaves the
-//! group at its first hit. [`GROUPS_IN_FLIGHT`] groups step in turn, so that one group's
-//! cache misses overlap the others' work, as a stream of single rays does.
+//! the node loads and the stack work that a ray alone pays for by itself.
+//! [`GROUPS_IN_FLIGHT`] groups step in turn, so that one group's cache misses overlap the
+//! others' work, as a stream of single rays does.
 //!
-//! The answers are those of the single-ray test: a ray is occluded exactly when a triangle in
-//! a leaf whose box it enters is hit, whatever the order of the walk.
+//! - Any hit: a ray leaves the group at its first hit. Its answer is that of the single-ray
+//!   query: it is occluded exactly when a triangle in a leaf whose box it enters is hit,
+//!   whatever the order of the walk.
+//! - Closest hit: children are visited nearest first by the smallest entry distance of the
+//!   group's rays, and each ray tests boxes and leaves against its own closest hit so far.
+//!   Its closest distance is that of the single-ray query, bit for bit; on an exact tie (a
+//!   ray through an edge shared by two triangles) the triangle may be the other one.
 
 use std::marker::PhantomData;
 use std::mem::offset_of;
@@ -16,7 +21,8 @@ use std::mem::offset_of;
 use obvhs::cwbvh::node::CwBvhNode;
 
 use super::{
-    AnyLeaves, LEAF_FIRST_MASK, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, node_frame, prefetch_node,
+    AnyLeaves, ClosestLeaves, LEAF_FIRST_MASK, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, node_frame,
+    prefetch_node,
 };
 
 /// Rays in a group: one bit each in a stack entry's mask.
@@ -41,9 +47,10 @@ static SPREAD: [u64; 256] = {
 
 /// The rays of a group that enter each child box of a node.
 pub(super) trait GroupTest {
-    /// Bit `r` of entry `s` is set when ray `r` of `mask` enters child slot `s` of `node` on
-    /// `(t_min, t_max[r]]`, by the single-ray node test.
-    fn masks(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mask: u32) -> [u32; 8];
+    /// Bit `r` of `masks[s]` is set when ray `r` of `mask` enters child slot `s` of `node` on
+    /// `(t_min, t_max[r]]`, by the single-ray node test; `distances[s]` is the smallest entry
+    /// distance of those rays (infinite for none).
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mask: u32) -> ([u32; 8], [f32; 8]);
 }
 
 /// Any single-ray node test, ray by ray.
@@ -51,21 +58,28 @@ pub(super) struct EachRay<T>(PhantomData<T>);
 
 impl<T: NodeTest> GroupTest for EachRay<T> {
     #[inline(always)]
-    fn masks(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> [u32; 8] {
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8]) {
         // Byte `s` of `slots[j]` collects bits `8j..8j+8` of slot `s`'s ray mask.
         let mut slots = [0u64; GROUP_WIDTH / 8];
+        let mut distances = [f32::INFINITY; 8];
         while mask != 0 {
             let r = mask.trailing_zeros() as usize;
             mask &= mask - 1;
-            let (hits, _) = T::hits(node, &rays[r], t_max[r]);
+            let (hits, tnear) = T::hits(node, &rays[r], t_max[r]);
             slots[r / 8] |= SPREAD[hits as usize] << (r % 8);
+            for (s, d) in distances.iter_mut().enumerate() {
+                if hits & (1 << s) != 0 {
+                    *d = d.min(tnear[s]);
+                }
+            }
         }
-        std::array::from_fn(|slot| {
+        let masks = std::array::from_fn(|slot| {
             slots
                 .iter()
                 .enumerate()
                 .fold(0u32, |acc, (j, s)| acc | (((s >> (8 * slot)) & 0xff) as u32) << (8 * j))
-        })
+        });
+        (masks, distances)
     }
 }
 
@@ -73,9 +87,10 @@ impl<T: NodeTest> GroupTest for EachRay<T> {
 /// the others work.
 pub const GROUPS_IN_FLIGHT: usize = 4;
 
-/// One group of rays in flight: its rays, their distance limits and leaf tests, the rays
-/// still looking (`active`) and those that hit (`found`), the item to visit next with the
-/// rays that visit it, and its stack of (item, ray mask) entries.
+/// One group of rays in flight: its rays, their distance limits (the closest hits so far,
+/// for closest-hit walks) and leaf tests, the rays still looking (`active`) and those that
+/// hit (`found`, for any-hit walks), the item to visit next with the rays that visit it, and
+/// its stack of (item, ray mask, smallest entry distance) entries.
 pub(super) struct Group<V> {
     first: usize,
     rays: Vec<NodeRay>,
@@ -85,7 +100,7 @@ pub(super) struct Group<V> {
     found: u32,
     current: u32,
     mask: u32,
-    stack: Vec<(u32, u32)>,
+    stack: Vec<(u32, u32, f32)>,
 }
 
 impl<V> Group<V> {
@@ -102,12 +117,36 @@ impl<V> Group<V> {
             stack: Vec::with_capacity(stack_len),
         }
     }
+
+    /// The rays of `mask` whose closest hit so far is not nearer than `t`.
+    #[inline(always)]
+    fn not_beyond(&self, mut mask: u32, t: f32) -> u32 {
+        let mut keep = 0;
+        while mask != 0 {
+            let r = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            keep |= u32::from(t <= self.t_max[r]) << r;
+        }
+        keep
+    }
 }
 
-/// One step of a group's walk: tests the leaf or visits the node `g.current` for the rays of
-/// `g.mask` (a node's hit children go on the stack with the mask of rays that enter each,
-/// leaves on top), then pops the next item that a ray still looking visits. Returns false
-/// when the group is done.
+/// The stack entry of `slot`, a hit child of `node`, for the rays of `mask`.
+#[inline(always)]
+fn entry(node: &CwBvhNode, slot: usize, mask: u32, distance: f32) -> (u32, u32, f32) {
+    let id = if node.inner_mask() & (1 << slot) != 0 {
+        node.child(slot)
+    } else {
+        let (first, count) = node.leaf(slot);
+        LEAF_FLAG | count << 29 | first
+    };
+    (id, mask, distance)
+}
+
+/// One step of a group's any-hit walk: tests the leaf or visits the node `g.current` for the
+/// rays of `g.mask` (a node's hit children go on the stack with the mask of rays that enter
+/// each, leaves on top), then pops the next item that a ray still looking visits. Returns
+/// false when the group is done.
 #[inline(always)]
 fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
     if g.current & LEAF_FLAG != 0 {
@@ -126,26 +165,21 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
         }
     } else {
         let node = &nodes[g.current as usize];
-        let masks = G::masks(node, &g.rays, &g.t_max, g.mask);
+        let (masks, _) = G::hits(node, &g.rays, &g.t_max, g.mask);
         let any = (0..8).fold(0u32, |a, s| a | u32::from(masks[s] != 0) << s);
         let imask = node.inner_mask();
         // Nodes below leaves on the stack: leaves first, for an early exit.
-        let mut inner = any & imask;
-        while inner != 0 {
-            let slot = inner.trailing_zeros() as usize;
-            inner &= inner - 1;
-            g.stack.push((node.child(slot), masks[slot]));
-        }
-        let mut leaves = any & !imask;
-        while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
-            let (first, count) = node.leaf(slot);
-            g.stack.push((LEAF_FLAG | count << 29 | first, masks[slot]));
+        for part in [any & imask, any & !imask] {
+            let mut m = part;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                g.stack.push(entry(node, slot, masks[slot], 0.0));
+            }
         }
     }
     loop {
-        let Some((id, m)) = g.stack.pop() else { return false };
+        let Some((id, m, _)) = g.stack.pop() else { return false };
         if m & g.active != 0 {
             (g.current, g.mask) = (id, m & g.active);
             return true;
@@ -153,15 +187,68 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
     }
 }
 
-/// The any-hit walk of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
-/// [`GROUPS_IN_FLIGHT`] groups interleaved one step each, the item each group visits next
-/// prefetched when it is chosen. `finish(i, hit)` gets each ray's answer.
+/// One step of a group's closest-hit walk: tests the leaf or visits the node `g.current` for
+/// the rays of `g.mask` (the nearest hit child is next, the others go on the stack farthest
+/// first, leaves and nodes alike), then pops the next item that a ray may still find a
+/// closer hit in. Returns false when the group is done.
 #[inline(always)]
-pub(super) fn any_groups_loop<G: GroupTest, V: AnyLeaves>(
+fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
+    if g.current & LEAF_FLAG != 0 {
+        let (first, count) = (g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+        let mut m = g.mask;
+        while m != 0 {
+            let r = m.trailing_zeros() as usize;
+            m &= m - 1;
+            g.visitors[r].test(first, count, &mut g.t_max[r]);
+        }
+    } else {
+        let node = &nodes[g.current as usize];
+        let (masks, distances) = G::hits(node, &g.rays, &g.t_max, g.mask);
+        let any = (0..8).fold(0u32, |a, s| a | u32::from(masks[s] != 0) << s);
+        if any != 0 {
+            // Insertion sort, farthest first; ties keep slot order.
+            let mut order = [(0u32, 0u32, 0.0f32); 8];
+            let mut n = 0;
+            let mut m = any;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                let item = entry(node, slot, masks[slot], distances[slot]);
+                let mut j = n;
+                while j > 0 && order[j - 1].2 < item.2 {
+                    order[j] = order[j - 1];
+                    j -= 1;
+                }
+                order[j] = item;
+                n += 1;
+            }
+            g.stack.extend_from_slice(&order[..n - 1]);
+            (g.current, g.mask) = (order[n - 1].0, order[n - 1].1);
+            return true;
+        }
+    }
+    loop {
+        let Some((id, m, t)) = g.stack.pop() else { return false };
+        let m = g.not_beyond(m, t);
+        if m != 0 {
+            (g.current, g.mask) = (id, m);
+            return true;
+        }
+    }
+}
+
+/// The walk of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
+/// [`GROUPS_IN_FLIGHT`] groups interleaved one `step` each, the item each group visits next
+/// prefetched when it is chosen (`prefetch_leaf` for leaves); `done` gets each finished
+/// group.
+#[inline(always)]
+fn groups_loop<V>(
     nodes: &[CwBvhNode],
     count: usize,
     mut start: impl FnMut(usize) -> (NodeRay, f32, V),
-    mut finish: impl FnMut(usize, bool),
+    step: impl Fn(&mut Group<V>) -> bool,
+    prefetch_leaf: impl Fn(&V, u32, u32),
+    mut done: impl FnMut(&mut Group<V>),
     groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
 ) {
     let mut busy = [false; GROUPS_IN_FLIGHT];
@@ -191,15 +278,15 @@ pub(super) fn any_groups_loop<G: GroupTest, V: AnyLeaves>(
                 *busy = true;
             }
             any_busy = true;
-            if any_group_step::<G, V>(nodes, g) {
+            if step(g) {
                 if g.current & LEAF_FLAG != 0 {
                     let r = g.mask.trailing_zeros() as usize;
-                    g.visitors[r].prefetch(g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+                    prefetch_leaf(&g.visitors[r], g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
                 } else {
                     prefetch_node(nodes, g.current);
                 }
             } else {
-                (0..g.rays.len()).for_each(|r| finish(g.first + r, g.found & (1 << r) != 0));
+                done(g);
                 *busy = false;
             }
         }
@@ -207,6 +294,51 @@ pub(super) fn any_groups_loop<G: GroupTest, V: AnyLeaves>(
             return;
         }
     }
+}
+
+/// The any-hit walk of rays `0..count` in groups ([`groups_loop`]); `finish(i, hit)` gets
+/// each ray's answer.
+#[inline(always)]
+pub(super) fn any_groups_loop<G: GroupTest, V: AnyLeaves>(
+    nodes: &[CwBvhNode],
+    count: usize,
+    start: impl FnMut(usize) -> (NodeRay, f32, V),
+    mut finish: impl FnMut(usize, bool),
+    groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
+) {
+    groups_loop(
+        nodes,
+        count,
+        start,
+        |g| any_group_step::<G, V>(nodes, g),
+        |v, first, count| v.prefetch(first, count),
+        |g| (0..g.rays.len()).for_each(|r| finish(g.first + r, g.found & (1 << r) != 0)),
+        groups,
+    );
+}
+
+/// The closest-hit walk of rays `0..count` in groups ([`groups_loop`]); `finish(i, leaves)`
+/// gets each ray's leaf test back.
+#[inline(always)]
+pub(super) fn closest_groups_loop<G: GroupTest, V: ClosestLeaves>(
+    nodes: &[CwBvhNode],
+    count: usize,
+    start: impl FnMut(usize) -> (NodeRay, f32, V),
+    mut finish: impl FnMut(usize, V),
+    groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
+) {
+    groups_loop(
+        nodes,
+        count,
+        start,
+        |g| closest_group_step::<G, V>(nodes, g),
+        |v, first, count| v.prefetch(first, count),
+        |g| {
+            let first = g.first;
+            g.visitors.drain(..).enumerate().for_each(|(r, v)| finish(first + r, v));
+        },
+        groups,
+    );
 }
 
 /// The AVX2 group test: the node's quantised planes are widened to floats once, then each
@@ -218,11 +350,12 @@ pub(super) struct Avx2Group;
 #[cfg(target_arch = "x86_64")]
 impl GroupTest for Avx2Group {
     #[inline(always)]
-    fn masks(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> [u32; 8] {
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8]) {
         use std::arch::x86_64::*;
         let first_row = offset_of!(CwBvhNode, child_min_x);
         let base = (node as *const CwBvhNode).cast::<u8>();
         let mut out = [0u32; 8];
+        let mut distances = [0.0f32; 8];
         // SAFETY: `Avx2Group` is only used inside functions compiled with AVX2 and FMA,
         // entered after `is_x86_feature_detected!` confirmed them; the six 8-byte rows read
         // lie inside `*node`, and the row indices of a `NodeRay` are below 6.
@@ -232,6 +365,7 @@ impl GroupTest for Avx2Group {
             });
             let row = |offset: usize| *rows.get_unchecked((offset - first_row) / 8);
             let mut acc = _mm256_setzero_si256();
+            let mut nearest = _mm256_set1_ps(f32::INFINITY);
             while mask != 0 {
                 let r = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
@@ -253,11 +387,13 @@ impl GroupTest for Avx2Group {
                 );
                 let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1));
                 acc = _mm256_or_si256(acc, _mm256_and_si256(hit, _mm256_set1_epi32(1 << r)));
+                nearest = _mm256_blendv_ps(nearest, _mm256_min_ps(nearest, t0), _mm256_castsi256_ps(hit));
             }
+            _mm256_storeu_ps(distances.as_mut_ptr(), nearest);
             let meta = _mm256_cvtepu8_epi32(_mm_loadl_epi64(node.child_meta.as_ptr().cast()));
             let empty = _mm256_cmpeq_epi32(meta, _mm256_setzero_si256());
             _mm256_storeu_si256(out.as_mut_ptr().cast(), _mm256_andnot_si256(empty, acc));
         }
-        out
+        (out, distances)
     }
 }
