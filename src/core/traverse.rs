@@ -32,7 +32,8 @@ const INLINE_STACK: usize = 256;
 pub struct NodeRay {
     origin: Vec3A,
     inv_dir: Vec3A,
-    /// Byte offsets into a [`CwBvhNode`] of the near and far quantised planes, per axis.
+    /// Byte offsets of the near and far quantised planes of each axis from the first plane
+    /// row of a [`CwBvhNode`] ([`FIRST_ROW`]): 0, 8, ..., 40.
     near: [usize; 3],
     far: [usize; 3],
     t_min: f32,
@@ -53,14 +54,14 @@ impl NodeRay {
         let dir = Vec3A::from(dir) + Vec3A::ZERO;
         let inv_dir = Vec3A::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
         let lo = [
-            offset_of!(CwBvhNode, child_min_x),
-            offset_of!(CwBvhNode, child_min_y),
-            offset_of!(CwBvhNode, child_min_z),
+            offset_of!(CwBvhNode, child_min_x) - FIRST_ROW,
+            offset_of!(CwBvhNode, child_min_y) - FIRST_ROW,
+            offset_of!(CwBvhNode, child_min_z) - FIRST_ROW,
         ];
         let hi = [
-            offset_of!(CwBvhNode, child_max_x),
-            offset_of!(CwBvhNode, child_max_y),
-            offset_of!(CwBvhNode, child_max_z),
+            offset_of!(CwBvhNode, child_max_x) - FIRST_ROW,
+            offset_of!(CwBvhNode, child_max_y) - FIRST_ROW,
+            offset_of!(CwBvhNode, child_max_z) - FIRST_ROW,
         ];
         let neg = [dir.x < 0.0, dir.y < 0.0, dir.z < 0.0];
         let pick = |k: usize, near: bool| if neg[k] == near { hi[k] } else { lo[k] };
@@ -74,7 +75,11 @@ impl NodeRay {
     }
 }
 
-/// The eight quantised planes at byte `offset` of `node`.
+/// Byte offset in a [`CwBvhNode`] of its first row of eight quantised planes; the six rows
+/// (min x, max x, min y, max y, min z, max z) follow one another.
+const FIRST_ROW: usize = offset_of!(CwBvhNode, child_min_x);
+
+/// The eight quantised planes at byte `offset` from the first row of `node`.
 #[inline(always)]
 fn planes(node: &CwBvhNode, offset: usize) -> [u8; 8] {
     let at = |k: usize| match k {
@@ -85,7 +90,7 @@ fn planes(node: &CwBvhNode, offset: usize) -> [u8; 8] {
         4 => node.child_min_z,
         _ => node.child_max_z,
     };
-    at((offset - offset_of!(CwBvhNode, child_min_x)) / 8)
+    at(offset / 8)
 }
 
 /// Slab slopes and offsets of a node for a ray: the distance to quantised plane `q` along axis
@@ -214,14 +219,15 @@ mod avx {
         }
     }
 
-    /// Distances to the eight quantised planes at byte `offset` of `node` along an axis with
-    /// slab slope `scale` and offset `shift`.
+    /// Distances to the eight quantised planes at byte `offset` from the first plane row of
+    /// `node` along an axis with slab slope `scale` and offset `shift`.
     ///
     /// # Safety
-    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`), and `offset + 8` must not
-    /// exceed the node size.
+    /// The CPU must have AVX, FMA and SSE4.1 (and AVX2 if `AVX2`), and `offset` must be one of
+    /// the six rows' (at most 40).
     #[inline(always)]
     unsafe fn slab<const AVX2: bool>(node: &CwBvhNode, offset: usize, scale: f32, shift: f32) -> __m256 {
+        let offset = offset + super::FIRST_ROW;
         debug_assert!(offset + 8 <= size_of::<CwBvhNode>());
         let p = (node as *const CwBvhNode).cast::<u8>();
         // SAFETY: per the contract, the eight bytes read lie inside `*node` (unaligned loads)

@@ -16,13 +16,12 @@
 //!   ray through an edge shared by two triangles) the triangle may be the other one.
 
 use std::marker::PhantomData;
-use std::mem::offset_of;
 
 use obvhs::cwbvh::node::CwBvhNode;
 
 use super::{
-    AnyLeaves, ClosestLeaves, LEAF_FIRST_MASK, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, node_frame,
-    prefetch_node,
+    AnyLeaves, ClosestLeaves, FIRST_ROW, LEAF_FIRST_MASK, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode,
+    node_frame, prefetch_node,
 };
 
 /// Rays in a group: one bit each in a stack entry's mask.
@@ -352,18 +351,19 @@ impl GroupTest for Avx2Group {
     #[inline(always)]
     fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8]) {
         use std::arch::x86_64::*;
-        let first_row = offset_of!(CwBvhNode, child_min_x);
         let base = (node as *const CwBvhNode).cast::<u8>();
         let mut out = [0u32; 8];
         let mut distances = [0.0f32; 8];
         // SAFETY: `Avx2Group` is only used inside functions compiled with AVX2 and FMA,
         // entered after `is_x86_feature_detected!` confirmed them; the six 8-byte rows read
-        // lie inside `*node`, and the row indices of a `NodeRay` are below 6.
+        // lie inside `*node`, and the row offsets of a `NodeRay` are at most 40, so that
+        // `4 * offset` points at one of the six vectors of `rows`.
         unsafe {
             let rows: [__m256; 6] = std::array::from_fn(|k| {
-                _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(base.add(first_row + 8 * k).cast())))
+                _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(base.add(FIRST_ROW + 8 * k).cast())))
             });
-            let row = |offset: usize| *rows.get_unchecked((offset - first_row) / 8);
+            // Row `k` is at byte offset `8 k` in the node and `32 k` in `rows`.
+            let row = |offset: usize| rows.as_ptr().cast::<u8>().add(4 * offset).cast::<__m256>().read();
             let mut acc = _mm256_setzero_si256();
             let mut nearest = _mm256_set1_ps(f32::INFINITY);
             while mask != 0 {
