@@ -3,7 +3,8 @@
 //! nearest first, stack entries culled by distance) and for any hit (occlusion, all hits).
 //! A single ray prefetches the children and leaves a node test hits before it tests the
 //! leaves, so their cache misses overlap the triangle tests (incoherent rays are bound by
-//! those misses); a stream prefetches the item each of its rays visits next.
+//! those misses); a stream prefetches the item each of its rays visits next. Coherent rays
+//! can instead walk the tree in groups that share each node ([`group`]).
 //! The loops are generic over [`WideBvhNode`], so another 8-wide node format can plug in.
 //!
 //! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
@@ -636,7 +637,7 @@ impl Traverser {
 
 impl Traverser {
     /// Any-hit traversal of rays `0..count` in groups of [`group::GROUP_WIDTH`] consecutive
-    /// rays, each group walking the tree once ([`group::any_group_loop`]); `finish(i, hit)`
+    /// rays, each group walking the tree once ([`group::any_groups_loop`]); `finish(i, hit)`
     /// gets each answer, the same as [`Traverser::any`]'s.
     pub fn any_groups<V: AnyLeaves>(
         &self,
