@@ -856,6 +856,16 @@ mod tests {
                 assert_eq!(blocked[i], portable.occluded(ray), "stream ray {i}");
             }
             assert!(ties <= rays.len() / 1000, "{ties} ties");
+            // A batch whose last group is partly filled (77 = 2 x 32 + 13 camera rays).
+            let part = &rays[random + 100..random + 177];
+            let mut triangles = vec![None; part.len()];
+            let mut blocked = vec![false; part.len()];
+            bvh.closest_triangles_into(part, &mut triangles);
+            bvh.occluded_into(part, &mut blocked);
+            for (i, ray) in part.iter().enumerate() {
+                assert_eq!(triangles[i].map(|h| h.1), portable.closest_triangle(ray).map(|h| h.1), "ray {i}");
+                assert_eq!(blocked[i], portable.occluded(ray), "ray {i}");
+            }
         }
         for k in 0..20_000u64 {
             let mut r = stream(4, 1, k);
