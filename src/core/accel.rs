@@ -193,21 +193,14 @@ impl MeshBvh {
 
     /// The leaf test of a closest-hit query for `ray`.
     #[inline(always)]
-    fn closest_visitor(&self, ray: &Ray) -> ClosestTriangle<'_> {
-        let shear = LeafRay::new(&RayShear::new(ray.origin, ray.dir));
-        ClosestTriangle {
-            leaves: &self.leaves,
-            mesh_index: &self.mesh_index,
-            shear,
-            t_min: ray.t_min,
-            best: None,
-        }
+    fn closest_visitor<'a>(&'a self, ray: &'a Ray) -> ClosestTriangle<'a> {
+        ClosestTriangle { leaves: &self.leaves, mesh_index: &self.mesh_index, shear: None, ray, best: None }
     }
 
     /// The leaf test of an occlusion query for `ray`.
     #[inline(always)]
     fn occlusion_visitor<'a>(&'a self, ray: &'a Ray) -> Occlusion<'a> {
-        Occlusion { leaves: &self.leaves, shear: LeafRay::new(&RayShear::new(ray.origin, ray.dir)), ray }
+        Occlusion { leaves: &self.leaves, shear: None, ray }
     }
 
     /// The closest hit as (leaf, lane, distance, barycentrics).
@@ -377,15 +370,18 @@ struct ClosestTriangle<'a> {
     /// [`MeshBvh::mesh_index`], whose entry for a new closest hit is prefetched: looking it
     /// up at the end was a cache miss a hit (6 % of the time on coherent rays).
     mesh_index: &'a [u32],
-    shear: LeafRay,
-    t_min: f32,
+    /// The ray's leaf-test constants, made at the first leaf (as for [`Occlusion`]).
+    shear: Option<LeafRay>,
+    ray: &'a Ray,
     best: Option<ClosestLane>,
 }
 
 impl ClosestLeaves for ClosestTriangle<'_> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32, t_max: &mut f32) {
-        let hits = self.leaves.intersect(first, count, &self.shear, self.t_min, *t_max);
+        let ray = self.ray;
+        let shear = self.shear.get_or_insert_with(|| LeafRay::new(&RayShear::new(ray.origin, ray.dir)));
+        let hits = self.leaves.intersect(first, count, shear, ray.t_min, *t_max);
         let mut mask = hits.mask;
         while mask != 0 {
             let lane = mask.trailing_zeros();
@@ -411,15 +407,19 @@ impl ClosestLeaves for ClosestTriangle<'_> {
 /// The leaf test of an occlusion query.
 struct Occlusion<'a> {
     leaves: &'a LeafTriangles,
-    shear: LeafRay,
+    /// The ray's leaf-test constants, made at the first leaf: a ray that reaches none (most
+    /// of a camera's sky rays) never needs them.
+    shear: Option<LeafRay>,
     ray: &'a Ray,
 }
 
 impl AnyLeaves for Occlusion<'_> {
     #[inline(always)]
     fn test(&mut self, first: u32, count: u32) -> bool {
-        let hits = self.leaves.intersect(first, count, &self.shear, self.ray.t_min, self.ray.t_max);
-        hits.mask & hits.t.cmplt(Vec4::splat(self.ray.t_max)).bitmask() != 0
+        let ray = self.ray;
+        let shear = self.shear.get_or_insert_with(|| LeafRay::new(&RayShear::new(ray.origin, ray.dir)));
+        let hits = self.leaves.intersect(first, count, shear, ray.t_min, ray.t_max);
+        hits.mask & hits.t.cmplt(Vec4::splat(ray.t_max)).bitmask() != 0
     }
 
     #[inline(always)]

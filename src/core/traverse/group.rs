@@ -48,8 +48,9 @@ static SPREAD: [u64; 256] = {
 pub(super) trait GroupTest {
     /// Bit `r` of `masks[s]` is set when ray `r` of `mask` enters child slot `s` of `node` on
     /// `(t_min, t_max[r]]`, by the single-ray node test; `distances[s]` is the smallest entry
-    /// distance of those rays (infinite for none).
-    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mask: u32) -> ([u32; 8], [f32; 8]);
+    /// distance of those rays (infinite for none); bit `s` of `any` is set when `masks[s]`
+    /// is not empty. Returns `(masks, distances, any)`.
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mask: u32) -> ([u32; 8], [f32; 8], u32);
 }
 
 /// Any single-ray node test, ray by ray.
@@ -57,14 +58,16 @@ pub(super) struct EachRay<T>(PhantomData<T>);
 
 impl<T: NodeTest> GroupTest for EachRay<T> {
     #[inline(always)]
-    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8]) {
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8], u32) {
         // Byte `s` of `slots[j]` collects bits `8j..8j+8` of slot `s`'s ray mask.
         let mut slots = [0u64; GROUP_WIDTH / 8];
         let mut distances = [f32::INFINITY; 8];
+        let mut any = 0;
         while mask != 0 {
             let r = mask.trailing_zeros() as usize;
             mask &= mask - 1;
             let (hits, tnear) = T::hits(node, &rays[r], t_max[r]);
+            any |= hits;
             slots[r / 8] |= SPREAD[hits as usize] << (r % 8);
             for (s, d) in distances.iter_mut().enumerate() {
                 if hits & (1 << s) != 0 {
@@ -78,7 +81,7 @@ impl<T: NodeTest> GroupTest for EachRay<T> {
                 .enumerate()
                 .fold(0u32, |acc, (j, s)| acc | (((s >> (8 * slot)) & 0xff) as u32) << (8 * j))
         });
-        (masks, distances)
+        (masks, distances, any)
     }
 }
 
@@ -164,8 +167,7 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
         }
     } else {
         let node = &nodes[g.current as usize];
-        let (masks, _) = G::hits(node, &g.rays, &g.t_max, g.mask);
-        let any = (0..8).fold(0u32, |a, s| a | u32::from(masks[s] != 0) << s);
+        let (masks, _, any) = G::hits(node, &g.rays, &g.t_max, g.mask);
         let imask = node.inner_mask();
         // Nodes below leaves on the stack: leaves first, for an early exit.
         for part in [any & imask, any & !imask] {
@@ -202,8 +204,7 @@ fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &m
         }
     } else {
         let node = &nodes[g.current as usize];
-        let (masks, distances) = G::hits(node, &g.rays, &g.t_max, g.mask);
-        let any = (0..8).fold(0u32, |a, s| a | u32::from(masks[s] != 0) << s);
+        let (masks, distances, any) = G::hits(node, &g.rays, &g.t_max, g.mask);
         if any != 0 {
             // Insertion sort, farthest first; ties keep slot order.
             let mut order = [(0u32, 0u32, 0.0f32); 8];
@@ -349,11 +350,12 @@ pub(super) struct Avx2Group;
 #[cfg(target_arch = "x86_64")]
 impl GroupTest for Avx2Group {
     #[inline(always)]
-    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8]) {
+    fn hits(node: &CwBvhNode, rays: &[NodeRay], t_max: &[f32], mut mask: u32) -> ([u32; 8], [f32; 8], u32) {
         use std::arch::x86_64::*;
         let base = (node as *const CwBvhNode).cast::<u8>();
         let mut out = [0u32; 8];
         let mut distances = [0.0f32; 8];
+        let any;
         // SAFETY: `Avx2Group` is only used inside functions compiled with AVX2 and FMA,
         // entered after `is_x86_feature_detected!` confirmed them; the six 8-byte rows read
         // lie inside `*node`, and the row offsets of a `NodeRay` are at most 40, so that
@@ -392,8 +394,11 @@ impl GroupTest for Avx2Group {
             _mm256_storeu_ps(distances.as_mut_ptr(), nearest);
             let meta = _mm256_cvtepu8_epi32(_mm_loadl_epi64(node.child_meta.as_ptr().cast()));
             let empty = _mm256_cmpeq_epi32(meta, _mm256_setzero_si256());
-            _mm256_storeu_si256(out.as_mut_ptr().cast(), _mm256_andnot_si256(empty, acc));
+            let masks = _mm256_andnot_si256(empty, acc);
+            _mm256_storeu_si256(out.as_mut_ptr().cast(), masks);
+            let none = _mm256_cmpeq_epi32(masks, _mm256_setzero_si256());
+            any = !(_mm256_movemask_ps(_mm256_castsi256_ps(none)) as u32) & 0xff;
         }
-        (out, distances)
+        (out, distances, any)
     }
 }
