@@ -341,6 +341,22 @@ pub(super) fn closest_groups_loop<G: GroupTest, V: ClosestLeaves>(
     );
 }
 
+/// Row `r` holds `1 << r` in all eight lanes: a ray's bit, ready to mark the slots it enters.
+#[cfg(target_arch = "x86_64")]
+#[repr(align(32))]
+struct RayBits([[u32; 8]; GROUP_WIDTH]);
+
+#[cfg(target_arch = "x86_64")]
+static RAY_BITS: RayBits = RayBits({
+    let mut t = [[0u32; 8]; GROUP_WIDTH];
+    let mut r = 0;
+    while r < GROUP_WIDTH {
+        t[r] = [1 << r; 8];
+        r += 1;
+    }
+    t
+});
+
 /// The AVX2 group test: the node's quantised planes are widened to floats once, then each
 /// ray's slab distances are the same fused multiply-adds as in the single-ray test
 /// ([`super::avx::cw_hits`]), so every ray gets the same answer as alone.
@@ -359,7 +375,8 @@ impl GroupTest for Avx2Group {
         // SAFETY: `Avx2Group` is only used inside functions compiled with AVX2 and FMA,
         // entered after `is_x86_feature_detected!` confirmed them; the six 8-byte rows read
         // lie inside `*node`, and the row offsets of a `NodeRay` are at most 40, so that
-        // `4 * offset` points at one of the six vectors of `rows`.
+        // `4 * offset` points at one of the six vectors of `rows`; the rays of `mask` are
+        // below `rays.len()` (at most 32), so `RAY_BITS` has their aligned row.
         unsafe {
             let rows: [__m256; 6] = std::array::from_fn(|k| {
                 _mm256_cvtepi32_ps(_mm256_cvtepu8_epi32(_mm_loadl_epi64(base.add(FIRST_ROW + 8 * k).cast())))
@@ -368,27 +385,30 @@ impl GroupTest for Avx2Group {
             let row = |offset: usize| rows.as_ptr().cast::<u8>().add(4 * offset).cast::<__m256>().read();
             let mut acc = _mm256_setzero_si256();
             let mut nearest = _mm256_set1_ps(f32::INFINITY);
+            let lane = [_mm256_set1_epi32(0), _mm256_set1_epi32(1), _mm256_set1_epi32(2)];
             while mask != 0 {
                 let r = mask.trailing_zeros() as usize;
                 mask &= mask - 1;
                 let ray = rays.get_unchecked(r);
                 let (scale, shift) = node_frame(node, ray);
-                let slab = |offset: usize, scale: f32, shift: f32| {
-                    _mm256_fmadd_ps(row(offset), _mm256_set1_ps(scale), _mm256_set1_ps(shift))
+                // Lane `k` of `scale` and `shift` across all eight lanes, one permute each.
+                let (scale, shift) =
+                    (_mm256_castps128_ps256(scale.into()), _mm256_castps128_ps256(shift.into()));
+                let across = |v: __m256, k: usize| _mm256_permutevar8x32_ps(v, lane[k]);
+                let slab = |offset: usize, k: usize| {
+                    _mm256_fmadd_ps(row(offset), across(scale, k), across(shift, k))
                 };
                 let t0 = _mm256_max_ps(
-                    _mm256_max_ps(slab(ray.near[0], scale.x, shift.x), slab(ray.near[1], scale.y, shift.y)),
-                    _mm256_max_ps(slab(ray.near[2], scale.z, shift.z), _mm256_set1_ps(ray.t_min)),
+                    _mm256_max_ps(slab(ray.near[0], 0), slab(ray.near[1], 1)),
+                    _mm256_max_ps(slab(ray.near[2], 2), _mm256_set1_ps(ray.t_min)),
                 );
                 let t1 = _mm256_min_ps(
-                    _mm256_min_ps(slab(ray.far[0], scale.x, shift.x), slab(ray.far[1], scale.y, shift.y)),
-                    _mm256_min_ps(
-                        slab(ray.far[2], scale.z, shift.z),
-                        _mm256_set1_ps(*t_max.get_unchecked(r)),
-                    ),
+                    _mm256_min_ps(slab(ray.far[0], 0), slab(ray.far[1], 1)),
+                    _mm256_min_ps(slab(ray.far[2], 2), _mm256_set1_ps(*t_max.get_unchecked(r))),
                 );
                 let hit = _mm256_castps_si256(_mm256_cmp_ps::<_CMP_LE_OQ>(t0, t1));
-                acc = _mm256_or_si256(acc, _mm256_and_si256(hit, _mm256_set1_epi32(1 << r)));
+                let bit = _mm256_load_si256(RAY_BITS.0.as_ptr().add(r).cast());
+                acc = _mm256_or_si256(acc, _mm256_and_si256(hit, bit));
                 nearest = _mm256_blendv_ps(nearest, _mm256_min_ps(nearest, t0), _mm256_castsi256_ps(hit));
             }
             _mm256_storeu_ps(distances.as_mut_ptr(), nearest);
