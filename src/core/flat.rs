@@ -80,10 +80,11 @@ pub struct FlatRay {
     inv_dir: [f32; 3],
 }
 
-/// `1/x` without infinities, lane by lane and without branches: the tree's `safe_inverse`,
-/// so slab products stay finite.
+/// `1/x` without infinities, lane by lane and without branches (obvhs' `safe_inverse`): a
+/// zero direction component gives a large finite slope, so slab products stay finite (no
+/// `0 * inf`). The tree's node test and the blocks' box test both use it.
 #[inline(always)]
-fn safe_inverse(x: Vec3A) -> Vec3A {
+pub(crate) fn safe_inverse(x: Vec3A) -> Vec3A {
     let tiny = x.abs().cmple(Vec3A::splat(f32::EPSILON));
     Vec3A::select(tiny, x.signum() / f32::EPSILON, Vec3A::ONE / x)
 }

@@ -21,7 +21,7 @@ pub use group::GROUP_WIDTH;
 
 use std::mem::{MaybeUninit, offset_of};
 
-use super::flat::{FlatRay, FlatTriangles};
+use super::flat::{FlatRay, FlatTriangles, safe_inverse};
 use glam::{Vec2, Vec3, Vec3A};
 use obvhs::cwbvh::node::CwBvhNode;
 
@@ -40,20 +40,13 @@ pub struct NodeRay {
     t_min: f32,
 }
 
-/// `1/x` without infinities: obvhs' `safe_inverse`, so a zero direction component gives a
-/// large finite slope and the slab products stay finite (no `0 * inf`).
-#[inline(always)]
-fn safe_inverse(x: f32) -> f32 {
-    if x.abs() <= f32::EPSILON { x.signum() / f32::EPSILON } else { 1.0 / x }
-}
-
 impl NodeRay {
     /// Node-test constants of the ray `origin + t dir`, `t` in `(t_min, ..]`.
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3, t_min: f32) -> Self {
         // +0.0 turns -0.0 into +0.0, so the sign tests below and `safe_inverse` agree.
         let dir = Vec3A::from(dir) + Vec3A::ZERO;
-        let inv_dir = Vec3A::new(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
+        let inv_dir = safe_inverse(dir);
         let lo = [
             offset_of!(CwBvhNode, child_min_x) - FIRST_ROW,
             offset_of!(CwBvhNode, child_min_y) - FIRST_ROW,
