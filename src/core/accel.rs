@@ -281,18 +281,25 @@ impl MeshBvh {
     fn closest_lanes_stream(&self, rays: &[Ray], mut out: impl FnMut(usize, Option<ClosestLane>)) {
         let (grouped, alone) = split_coherent(rays, self.size_m);
         let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i]));
+        if grouped.is_empty() {
+            // All incoherent: one stream, without the index list.
+            self.traverser.closest_stream(&self.nodes, rays.len(), start, |i, visitor| out(i, visitor.best));
+            return;
+        }
         self.traverser.closest_groups(
             &self.nodes,
             grouped.len(),
             |k| start(grouped[k] as usize),
             |k, visitor| out(grouped[k] as usize, visitor.best),
         );
-        self.traverser.closest_stream(
-            &self.nodes,
-            alone.len(),
-            |k| start(alone[k] as usize),
-            |k, visitor| out(alone[k] as usize, visitor.best),
-        );
+        if !alone.is_empty() {
+            self.traverser.closest_stream(
+                &self.nodes,
+                alone.len(),
+                |k| start(alone[k] as usize),
+                |k, visitor| out(alone[k] as usize, visitor.best),
+            );
+        }
     }
 
     /// [`MeshBvh::closest_triangle`] of every ray, in groups and a stream, into `out`.
@@ -325,18 +332,25 @@ impl MeshBvh {
         }
         let (grouped, alone) = split_coherent(rays, self.size_m);
         let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i]));
+        if grouped.is_empty() {
+            // All incoherent: one stream, without the index list.
+            self.traverser.any_stream(&self.nodes, rays.len(), start, |i, hit| out[i] = hit);
+            return;
+        }
         self.traverser.any_groups(
             &self.nodes,
             grouped.len(),
             |k| start(grouped[k] as usize),
             |k, hit| out[grouped[k] as usize] = hit,
         );
-        self.traverser.any_stream(
-            &self.nodes,
-            alone.len(),
-            |k| start(alone[k] as usize),
-            |k, hit| out[alone[k] as usize] = hit,
-        );
+        if !alone.is_empty() {
+            self.traverser.any_stream(
+                &self.nodes,
+                alone.len(),
+                |k| start(alone[k] as usize),
+                |k, hit| out[alone[k] as usize] = hit,
+            );
+        }
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
