@@ -646,7 +646,7 @@ const COHERENT_ORIGIN_SPREAD: f32 = 1.0 / 16.0;
 /// pixels), traced group by group ([`Traverser::closest_groups`], [`Traverser::any_groups`]),
 /// and the others, traced as a stream of single rays. Measured on the 1M-triangle benchmark
 /// (2 threads, Mrays/s closest hit / occlusion, 3 alternating rounds): on the coherent rays
-/// that hit, groups 9.0 / 11.6 against 6.3 / 7.3 for streams; on incoherent rays, where
+/// that hit, groups 9.0 / 11.6 against 6.8 / 8.6 for streams; on incoherent rays, where
 /// groups share hardly any node, groups were half as fast (occlusion 5.4 against 10.8).
 fn split_coherent(rays: &[Ray], size_m: f32) -> (Vec<u32>, Vec<u32>) {
     let (mut grouped, mut alone) = (Vec::new(), Vec::new());
