@@ -629,9 +629,9 @@ impl Traverser {
 }
 
 impl Traverser {
-    /// Any-hit traversal of rays `0..count` in groups of [`group::GROUP_WIDTH`] consecutive
-    /// rays, each group walking the tree once ([`group::any_groups_loop`]); `finish(i, hit)`
-    /// gets each answer, the same as [`Traverser::any`]'s.
+    /// Any-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
+    /// each group walking the tree once ([`group`]); `finish(i, hit)` gets each answer, the
+    /// same as [`Traverser::any`]'s.
     pub fn any_groups<V: AnyLeaves>(
         &self,
         nodes: &[CwBvhNode],
@@ -643,31 +643,12 @@ impl Traverser {
             (0..count).for_each(|i| finish(i, false));
             return;
         }
-        let mut groups: [group::Group<V>; group::GROUPS_IN_FLIGHT] =
-            std::array::from_fn(|_| group::Group::new(self.stack_len));
-        match self.isa {
-            Isa::Scalar => group::any_groups_loop::<group::EachRay<ScalarTest>, V>(
-                nodes,
-                count,
-                start,
-                finish,
-                &mut groups,
-            ),
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => unsafe { any_groups_avx(nodes, count, start, finish, &mut groups) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
-            // FMA, BMI1 and POPCNT.
-            Isa::Avx2 | Isa::Avx512 => unsafe { any_groups_avx2(nodes, count, start, finish, &mut groups) },
-        }
+        self.walk_groups::<group::AnyHit, V>(nodes, count, start, |g| g.answers(&mut finish));
     }
-}
 
-impl Traverser {
     /// Closest-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive
-    /// rays ([`group::closest_groups_loop`]): `start(i)` gives ray `i`'s node constants,
-    /// distance limit and leaf test, and `finish(i, leaves)` receives the leaf test back.
+    /// rays ([`group`]): `start(i)` gives ray `i`'s node constants, distance limit and leaf
+    /// test, and `finish(i, leaves)` receives the leaf test back.
     pub fn closest_groups<V: ClosestLeaves>(
         &self,
         nodes: &[CwBvhNode],
@@ -679,66 +660,54 @@ impl Traverser {
             (0..count).for_each(|i| finish(i, start(i).2));
             return;
         }
+        self.walk_groups::<group::ClosestHit, V>(nodes, count, start, |g| g.leaf_tests(&mut finish));
+    }
+
+    /// The group walk `W` over `nodes` with this traversal's instruction set.
+    fn walk_groups<W: group::Walk<V>, V>(
+        &self,
+        nodes: &[CwBvhNode],
+        count: usize,
+        start: impl FnMut(usize) -> (NodeRay, f32, V),
+        done: impl FnMut(&mut group::Group<V>),
+    ) {
         let mut groups: [group::Group<V>; group::GROUPS_IN_FLIGHT] =
             std::array::from_fn(|_| group::Group::new(self.stack_len));
+        let g = &mut groups;
         match self.isa {
-            Isa::Scalar => group::closest_groups_loop::<group::EachRay<ScalarTest>, V>(
-                nodes,
-                count,
-                start,
-                finish,
-                &mut groups,
-            ),
+            Isa::Scalar => {
+                group::groups_loop::<group::EachRay<ScalarTest>, W, V>(nodes, count, start, done, g)
+            }
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => unsafe { closest_groups_avx(nodes, count, start, finish, &mut groups) },
+            Isa::Avx => unsafe { groups_avx::<W, V>(nodes, count, start, done, g) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
             // FMA, BMI1 and POPCNT.
-            Isa::Avx2 | Isa::Avx512 => unsafe {
-                closest_groups_avx2(nodes, count, start, finish, &mut groups)
-            },
+            Isa::Avx2 | Isa::Avx512 => unsafe { groups_avx2::<W, V>(nodes, count, start, done, g) },
         }
     }
 }
 
-/// [`group::any_groups_loop`] and [`group::closest_groups_loop`] compiled for one
-/// instruction set.
-macro_rules! group_entry_points {
-    ($features:literal, $test:ty, $any:ident, $closest:ident) => {
+/// [`group::groups_loop`] compiled for one instruction set.
+macro_rules! group_entry_point {
+    ($features:literal, $test:ty, $name:ident) => {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        fn $any<V: AnyLeaves>(
+        fn $name<W: group::Walk<V>, V>(
             nodes: &[CwBvhNode],
             count: usize,
             start: impl FnMut(usize) -> (NodeRay, f32, V),
-            finish: impl FnMut(usize, bool),
+            done: impl FnMut(&mut group::Group<V>),
             groups: &mut [group::Group<V>; group::GROUPS_IN_FLIGHT],
         ) {
-            group::any_groups_loop::<$test, V>(nodes, count, start, finish, groups)
-        }
-
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = $features)]
-        fn $closest<V: ClosestLeaves>(
-            nodes: &[CwBvhNode],
-            count: usize,
-            start: impl FnMut(usize) -> (NodeRay, f32, V),
-            finish: impl FnMut(usize, V),
-            groups: &mut [group::Group<V>; group::GROUPS_IN_FLIGHT],
-        ) {
-            group::closest_groups_loop::<$test, V>(nodes, count, start, finish, groups)
+            group::groups_loop::<$test, W, V>(nodes, count, start, done, groups)
         }
     };
 }
 
-group_entry_points!(
-    "avx,fma,sse4.1,popcnt",
-    group::EachRay<avx::AvxTest<false>>,
-    any_groups_avx,
-    closest_groups_avx
-);
-group_entry_points!("avx2,fma,bmi1,popcnt", group::Avx2Group, any_groups_avx2, closest_groups_avx2);
+group_entry_point!("avx,fma,sse4.1,popcnt", group::EachRay<avx::AvxTest<false>>, groups_avx);
+group_entry_point!("avx2,fma,bmi1,popcnt", group::Avx2Group, groups_avx2);
 
 impl Traverser {
     /// [`FlatTriangles::closest`], 8 lanes wide where the CPU has AVX.

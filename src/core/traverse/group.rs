@@ -237,17 +237,67 @@ fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &m
     }
 }
 
-/// The walk of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
-/// [`GROUPS_IN_FLIGHT`] groups interleaved one `step` each, the item each group visits next
-/// prefetched when it is chosen (`prefetch_leaf` for leaves); `done` gets each finished
-/// group.
+/// What a group walk does: its step, and its leaf prefetch.
+pub(super) trait Walk<V> {
+    /// One step of group `g` ([`any_group_step`], [`closest_group_step`]); false when done.
+    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool;
+    /// A hint that leaf `(first, count)` is tested next.
+    fn prefetch(visitor: &V, first: u32, count: u32);
+}
+
+/// The any-hit walk.
+pub(super) struct AnyHit;
+
+impl<V: AnyLeaves> Walk<V> for AnyHit {
+    #[inline(always)]
+    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
+        any_group_step::<G, V>(nodes, g)
+    }
+
+    #[inline(always)]
+    fn prefetch(visitor: &V, first: u32, count: u32) {
+        visitor.prefetch(first, count);
+    }
+}
+
+/// The closest-hit walk.
+pub(super) struct ClosestHit;
+
+impl<V: ClosestLeaves> Walk<V> for ClosestHit {
+    #[inline(always)]
+    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
+        closest_group_step::<G, V>(nodes, g)
+    }
+
+    #[inline(always)]
+    fn prefetch(visitor: &V, first: u32, count: u32) {
+        visitor.prefetch(first, count);
+    }
+}
+
+impl<V: AnyLeaves> Group<V> {
+    /// Hands each ray's any-hit answer to `finish(i, hit)`.
+    pub(super) fn answers(&self, finish: &mut impl FnMut(usize, bool)) {
+        (0..self.rays.len()).for_each(|r| finish(self.first + r, self.found & (1 << r) != 0));
+    }
+}
+
+impl<V: ClosestLeaves> Group<V> {
+    /// Hands each ray's leaf test back to `finish(i, leaves)`.
+    pub(super) fn leaf_tests(&mut self, finish: &mut impl FnMut(usize, V)) {
+        let first = self.first;
+        self.visitors.drain(..).enumerate().for_each(|(r, v)| finish(first + r, v));
+    }
+}
+
+/// The walk `W` of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
+/// [`GROUPS_IN_FLIGHT`] groups interleaved one step each, the item each group visits next
+/// prefetched when it is chosen; `done` gets each finished group.
 #[inline(always)]
-fn groups_loop<V>(
+pub(super) fn groups_loop<G: GroupTest, W: Walk<V>, V>(
     nodes: &[CwBvhNode],
     count: usize,
     mut start: impl FnMut(usize) -> (NodeRay, f32, V),
-    step: impl Fn(&mut Group<V>) -> bool,
-    prefetch_leaf: impl Fn(&V, u32, u32),
     mut done: impl FnMut(&mut Group<V>),
     groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
 ) {
@@ -278,10 +328,10 @@ fn groups_loop<V>(
                 *busy = true;
             }
             any_busy = true;
-            if step(g) {
+            if W::step::<G>(nodes, g) {
                 if g.current & LEAF_FLAG != 0 {
                     let r = g.mask.trailing_zeros() as usize;
-                    prefetch_leaf(&g.visitors[r], g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+                    W::prefetch(&g.visitors[r], g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
                 } else {
                     prefetch_node(nodes, g.current);
                 }
@@ -294,51 +344,6 @@ fn groups_loop<V>(
             return;
         }
     }
-}
-
-/// The any-hit walk of rays `0..count` in groups ([`groups_loop`]); `finish(i, hit)` gets
-/// each ray's answer.
-#[inline(always)]
-pub(super) fn any_groups_loop<G: GroupTest, V: AnyLeaves>(
-    nodes: &[CwBvhNode],
-    count: usize,
-    start: impl FnMut(usize) -> (NodeRay, f32, V),
-    mut finish: impl FnMut(usize, bool),
-    groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
-) {
-    groups_loop(
-        nodes,
-        count,
-        start,
-        |g| any_group_step::<G, V>(nodes, g),
-        |v, first, count| v.prefetch(first, count),
-        |g| (0..g.rays.len()).for_each(|r| finish(g.first + r, g.found & (1 << r) != 0)),
-        groups,
-    );
-}
-
-/// The closest-hit walk of rays `0..count` in groups ([`groups_loop`]); `finish(i, leaves)`
-/// gets each ray's leaf test back.
-#[inline(always)]
-pub(super) fn closest_groups_loop<G: GroupTest, V: ClosestLeaves>(
-    nodes: &[CwBvhNode],
-    count: usize,
-    start: impl FnMut(usize) -> (NodeRay, f32, V),
-    mut finish: impl FnMut(usize, V),
-    groups: &mut [Group<V>; GROUPS_IN_FLIGHT],
-) {
-    groups_loop(
-        nodes,
-        count,
-        start,
-        |g| closest_group_step::<G, V>(nodes, g),
-        |v, first, count| v.prefetch(first, count),
-        |g| {
-            let first = g.first;
-            g.visitors.drain(..).enumerate().for_each(|(r, v)| finish(first + r, v));
-        },
-        groups,
-    );
 }
 
 /// Row `r` holds `1 << r` in all eight lanes: a ray's bit, ready to mark the slots it enters.
