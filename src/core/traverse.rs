@@ -839,6 +839,24 @@ fn prefetch_ahead<N: WideBvhNode>(nodes: &[N], node: &N, hits: u32, leaf: impl F
 const LEAF_FLAG: u32 = 1 << 31;
 const LEAF_FIRST_MASK: u32 = (1 << 29) - 1;
 
+/// The stack entry of child `slot` of `node` (whose inner mask is `imask`): its node index,
+/// or for a leaf [`LEAF_FLAG`], the primitive count and the first primitive.
+#[inline(always)]
+fn item_id<N: WideBvhNode>(node: &N, imask: u32, slot: usize) -> u32 {
+    if imask & (1 << slot) != 0 {
+        node.child(slot)
+    } else {
+        let (first, count) = node.leaf(slot);
+        LEAF_FLAG | count << 29 | first
+    }
+}
+
+/// The primitive range `(first, count)` of a leaf's stack entry.
+#[inline(always)]
+fn leaf_of(id: u32) -> (u32, u32) {
+    (id & LEAF_FIRST_MASK, (id >> 29) & 3)
+}
+
 /// Whether every leaf of `nodes` fits a stream's leaf stack entry (first primitive below
 /// 2^29, about 540 million triangles); streams are off for trees that do not.
 fn leaves_fit_stream_entries<N: WideBvhNode>(nodes: &[N]) -> bool {
@@ -873,20 +891,13 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
     stack: &mut Stack<'_>,
 ) -> bool {
     if c.current & LEAF_FLAG != 0 {
-        visitor.test(c.current & LEAF_FIRST_MASK, (c.current >> 29) & 3, &mut c.t_max);
+        let (first, count) = leaf_of(c.current);
+        visitor.test(first, count, &mut c.t_max);
     } else {
         let node = &nodes[c.current as usize];
         let (hits, tnear) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
-        let item = |slot: usize| {
-            let id = if imask & (1 << slot) != 0 {
-                node.child(slot)
-            } else {
-                let (first, count) = node.leaf(slot);
-                LEAF_FLAG | count << 29 | first
-            };
-            (id, tnear[slot])
-        };
+        let item = |slot: usize| (item_id(node, imask, slot), tnear[slot]);
         // The nearest item is next (what a push and a pop would give: it is entered before
         // `t_max`); the others go on the stack, farthest first. One or two hits, the common
         // cases, take no sorting loop.
@@ -924,11 +935,23 @@ fn closest_step<T: NodeTest, N: WideBvhNode>(
 
 /// Sorts the items `item(slot)` (id, entry distance) of the slots in `mask` (at least two)
 /// by distance, pushes all but the nearest, farthest first, and returns the nearest's id,
-/// to be visited next. Ties keep slot order (the later slot counts as nearer).
+/// to be visited next.
 #[inline(always)]
 fn push_all_but_nearest(mask: u32, item: impl Fn(usize) -> (u32, f32), stack: &mut Stack<'_>) -> u32 {
+    let (order, n) = far_to_near(mask, item);
+    for &(id, t) in &order[..n - 1] {
+        stack.push(id, t);
+    }
+    order[n - 1].0
+}
+
+/// The items `item(slot)` (anything, entry distance) of the slots in `mask`, sorted
+/// farthest first by insertion, and their count. Ties keep slot order (the later slot
+/// counts as nearer).
+#[inline(always)]
+fn far_to_near<T: Copy + Default>(mask: u32, item: impl Fn(usize) -> (T, f32)) -> ([(T, f32); 8], usize) {
     let n = mask.count_ones() as usize;
-    let mut order = [(0u32, 0.0f32); 8];
+    let mut order = [(T::default(), 0.0f32); 8];
     let mut rest = mask;
     for k in 0..n {
         let slot = rest.trailing_zeros() as usize;
@@ -941,17 +964,15 @@ fn push_all_but_nearest(mask: u32, item: impl Fn(usize) -> (u32, f32), stack: &m
         }
         order[j] = item;
     }
-    for &(id, t) in &order[..n - 1] {
-        stack.push(id, t);
-    }
-    order[n - 1].0
+    (order, n)
 }
 
 /// Starts loading the leaf or node that a cursor will visit next.
 #[inline(always)]
 fn prefetch_item<N: WideBvhNode>(nodes: &[N], id: u32, leaf: impl Fn(u32, u32)) {
     if id & LEAF_FLAG != 0 {
-        leaf(id & LEAF_FIRST_MASK, (id >> 29) & 3);
+        let (first, count) = leaf_of(id);
+        leaf(first, count);
     } else {
         prefetch_node(nodes, id);
     }
@@ -969,7 +990,8 @@ fn any_step<T: NodeTest, N: WideBvhNode>(
     stack: &mut Stack<'_>,
 ) -> Option<bool> {
     if c.current & LEAF_FLAG != 0 {
-        if visitor.test(c.current & LEAF_FIRST_MASK, (c.current >> 29) & 3) {
+        let (first, count) = leaf_of(c.current);
+        if visitor.test(first, count) {
             return Some(true);
         }
     } else {
@@ -977,18 +999,13 @@ fn any_step<T: NodeTest, N: WideBvhNode>(
         let (hits, _) = T::hits(node, ray, c.t_max);
         let imask = node.inner_mask();
         // Nodes below leaves on the stack: leaves first, for an early exit.
-        let mut inner = hits & imask;
-        while inner != 0 {
-            let slot = inner.trailing_zeros() as usize;
-            inner &= inner - 1;
-            stack.push(node.child(slot), 0.0);
-        }
-        let mut leaves = hits & !imask;
-        while leaves != 0 {
-            let slot = leaves.trailing_zeros() as usize;
-            leaves &= leaves - 1;
-            let (first, count) = node.leaf(slot);
-            stack.push(LEAF_FLAG | count << 29 | first, 0.0);
+        for part in [hits & imask, hits & !imask] {
+            let mut m = part;
+            while m != 0 {
+                let slot = m.trailing_zeros() as usize;
+                m &= m - 1;
+                stack.push(item_id(node, imask, slot), 0.0);
+            }
         }
     }
     match stack.pop() {

@@ -20,8 +20,8 @@ use std::marker::PhantomData;
 use obvhs::cwbvh::node::CwBvhNode;
 
 use super::{
-    AnyLeaves, ClosestLeaves, FIRST_ROW, LEAF_FIRST_MASK, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode,
-    node_frame, prefetch_node,
+    AnyLeaves, ClosestLeaves, FIRST_ROW, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, far_to_near, item_id,
+    leaf_of, node_frame, prefetch_node,
 };
 
 /// Rays in a group: one bit each in a stack entry's mask.
@@ -133,18 +133,6 @@ impl<V> Group<V> {
     }
 }
 
-/// The stack entry of `slot`, a hit child of `node`, for the rays of `mask`.
-#[inline(always)]
-fn entry(node: &CwBvhNode, slot: usize, mask: u32, distance: f32) -> (u32, u32, f32) {
-    let id = if node.inner_mask() & (1 << slot) != 0 {
-        node.child(slot)
-    } else {
-        let (first, count) = node.leaf(slot);
-        LEAF_FLAG | count << 29 | first
-    };
-    (id, mask, distance)
-}
-
 /// One step of a group's any-hit walk: tests the leaf or visits the node `g.current` for the
 /// rays of `g.mask` (a node's hit children go on the stack with the mask of rays that enter
 /// each, leaves on top), then pops the next item that a ray still looking visits. Returns
@@ -152,7 +140,7 @@ fn entry(node: &CwBvhNode, slot: usize, mask: u32, distance: f32) -> (u32, u32, 
 #[inline(always)]
 fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
     if g.current & LEAF_FLAG != 0 {
-        let (first, count) = (g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+        let (first, count) = leaf_of(g.current);
         let mut m = g.mask;
         while m != 0 {
             let r = m.trailing_zeros() as usize;
@@ -175,7 +163,7 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
             while m != 0 {
                 let slot = m.trailing_zeros() as usize;
                 m &= m - 1;
-                g.stack.push(entry(node, slot, masks[slot], 0.0));
+                g.stack.push((item_id(node, imask, slot), masks[slot], 0.0));
             }
         }
     }
@@ -195,7 +183,7 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
 #[inline(always)]
 fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
     if g.current & LEAF_FLAG != 0 {
-        let (first, count) = (g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+        let (first, count) = leaf_of(g.current);
         let mut m = g.mask;
         while m != 0 {
             let r = m.trailing_zeros() as usize;
@@ -206,24 +194,11 @@ fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &m
         let node = &nodes[g.current as usize];
         let (masks, distances, any) = G::hits(node, &g.rays, &g.t_max, g.mask);
         if any != 0 {
-            // Insertion sort, farthest first; ties keep slot order.
-            let mut order = [(0u32, 0u32, 0.0f32); 8];
-            let mut n = 0;
-            let mut m = any;
-            while m != 0 {
-                let slot = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let item = entry(node, slot, masks[slot], distances[slot]);
-                let mut j = n;
-                while j > 0 && order[j - 1].2 < item.2 {
-                    order[j] = order[j - 1];
-                    j -= 1;
-                }
-                order[j] = item;
-                n += 1;
-            }
-            g.stack.extend_from_slice(&order[..n - 1]);
-            (g.current, g.mask) = (order[n - 1].0, order[n - 1].1);
+            let imask = node.inner_mask();
+            let (order, n) =
+                far_to_near(any, |slot| ((item_id(node, imask, slot), masks[slot]), distances[slot]));
+            g.stack.extend(order[..n - 1].iter().map(|&((id, m), t)| (id, m, t)));
+            ((g.current, g.mask), _) = order[n - 1];
             return true;
         }
     }
@@ -331,7 +306,8 @@ pub(super) fn groups_loop<G: GroupTest, W: Walk<V>, V>(
             if W::step::<G>(nodes, g) {
                 if g.current & LEAF_FLAG != 0 {
                     let r = g.mask.trailing_zeros() as usize;
-                    W::prefetch(&g.visitors[r], g.current & LEAF_FIRST_MASK, (g.current >> 29) & 3);
+                    let (first, count) = leaf_of(g.current);
+                    W::prefetch(&g.visitors[r], first, count);
                 } else {
                     prefetch_node(nodes, g.current);
                 }
