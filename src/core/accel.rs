@@ -25,6 +25,7 @@ use super::hit::{Hit, PrimitiveKind};
 use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
+use super::ray_order::order_in_tiles;
 use super::sphere::Sphere;
 use super::traverse::prefetch;
 use super::traverse::{AnyLeaves, ClosestLeaves, GROUP_WIDTH, NodeRay, Traverser, leaf_ranges};
@@ -275,11 +276,20 @@ impl MeshBvh {
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
+    /// [`split_coherent`], the grouped rays then regrouped into tiles when they come in
+    /// scanline order ([`order_in_tiles`]). On the 1M-triangle benchmark's scanline camera
+    /// rays (alternating runs, Mrays/s closest hit / occlusion): 1 thread 15.7 / 20.5 before,
+    /// 17.6 / 22.6 after; 2 threads 28.6 / 38.1 before, 33.8 / 40.0 after.
+    fn split_and_order(&self, rays: &[Ray]) -> (Vec<u32>, Vec<u32>) {
+        let (grouped, alone) = split_coherent(rays, self.size_m);
+        (order_in_tiles(rays, grouped, self.size_m), alone)
+    }
+
     /// Closest hits of many rays, coherent groups walking the tree together and the others as a
     /// stream ([`split_coherent`]):
     /// `out(i, lane)` gets ray `i`'s closest leaf lane.
     fn closest_lanes_stream(&self, rays: &[Ray], mut out: impl FnMut(usize, Option<ClosestLane>)) {
-        let (grouped, alone) = split_coherent(rays, self.size_m);
+        let (grouped, alone) = self.split_and_order(rays);
         let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i]));
         if grouped.is_empty() {
             // All incoherent: one stream, without the index list.
@@ -330,7 +340,7 @@ impl MeshBvh {
             out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.occluded(r));
             return;
         }
-        let (grouped, alone) = split_coherent(rays, self.size_m);
+        let (grouped, alone) = self.split_and_order(rays);
         let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i]));
         if grouped.is_empty() {
             // All incoherent: one stream, without the index list.
@@ -854,6 +864,18 @@ mod tests {
         let (grouped, alone) = split_coherent(&rays, size_m);
         assert!(grouped.iter().all(|&i| i as usize >= random) && grouped.len() == rays.len() - random);
         assert!(alone.iter().all(|&i| (i as usize) < random));
+        // The camera rays come in scanline order: their groups are regrouped into 8 x 4 tiles.
+        let tiled = order_in_tiles(&rays, grouped, size_m);
+        for group in tiled.chunks(GROUP_WIDTH) {
+            let pixel = |i: u32| {
+                ((i as usize - random) / 4096, (i as usize - random) % 64, (i as usize - random) % 4096 / 64)
+            };
+            let (image, col, row) = pixel(group[0]);
+            assert!(group.iter().all(|&i| {
+                let (e, c, r) = pixel(i);
+                e == image && c / 8 == col / 8 && r / 4 == row / 4
+            }));
+        }
         for bvh in [portable, simd] {
             let mut triangles = vec![None; rays.len()];
             let mut hits = vec![None; rays.len()];
