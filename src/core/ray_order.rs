@@ -66,7 +66,7 @@ pub(crate) fn order_in_tiles(rays: &[Ray], grouped: Vec<u32>, reach_m: f32) -> V
 /// The row length of the batch in runs: the stride `s` for which run `k + s` starts next to
 /// run `k` (nearer than [`NEIGHBOUR_FRACTION`] of a run's mean length, in the median over
 /// sampled coherent runs, so that the seams between images do not count), the smallest such
-/// distance winning; `None` when no stride does. Rays are
+/// distance winning among the strides from three coherent runs to their nearest successors; `None` when no stride does. Rays are
 /// compared by the points `origin + reach_m * dir`, so rays from one eye compare by
 /// direction and parallel rays by origin.
 fn row_stride(rays: &[Ray], coherent: &[bool], reach_m: f32) -> Option<usize> {
@@ -81,10 +81,24 @@ fn row_stride(rays: &[Ray], coherent: &[bool], reach_m: f32) -> Option<usize> {
         return None;
     }
     let limit = NEIGHBOUR_FRACTION * length / runs as f32;
+    let max_stride = coherent.len() / TILE_ROWS;
+    // Candidates: for three coherent runs, the stride to the nearest coherent run after them.
+    let coherent_runs: Vec<usize> = (0..coherent.len()).filter(|&run| coherent[run]).collect();
+    let nearest_after = |k: usize| {
+        (1..=max_stride.min(coherent.len() - 1 - k))
+            .filter(|&s| coherent[k + s])
+            .min_by(|&a, &b| starts[k].distance(starts[k + a]).total_cmp(&starts[k].distance(starts[k + b])))
+    };
+    let mut candidates: Vec<usize> = [1, 2, 3]
+        .iter()
+        .filter_map(|q| nearest_after(coherent_runs[q * (coherent_runs.len() - 1) / 4]))
+        .collect();
+    candidates.sort_unstable();
+    candidates.dedup();
     let median_gap = |stride: usize| {
-        let candidates = coherent.len() - stride;
-        let step = candidates.div_ceil(STRIDE_SAMPLES).max(1);
-        let mut gaps: Vec<f32> = (0..candidates)
+        let pairs = coherent.len() - stride;
+        let step = pairs.div_ceil(STRIDE_SAMPLES).max(1);
+        let mut gaps: Vec<f32> = (0..pairs)
             .step_by(step)
             .filter(|&k| coherent[k] && coherent[k + stride])
             .map(|k| starts[k].distance(starts[k + stride]))
@@ -95,7 +109,8 @@ fn row_stride(rays: &[Ray], coherent: &[bool], reach_m: f32) -> Option<usize> {
         let middle = gaps.len() / 2;
         *gaps.select_nth_unstable_by(middle, f32::total_cmp).1
     };
-    (1..=coherent.len() / TILE_ROWS)
+    candidates
+        .into_iter()
         .map(|stride| (stride, median_gap(stride)))
         .filter(|&(_, gap)| gap < limit)
         .min_by(|a, b| a.1.total_cmp(&b.1))

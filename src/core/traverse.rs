@@ -1236,7 +1236,10 @@ pub fn leaf_ranges<N: WideBvhNode + Sync>(nodes: &[N]) -> Vec<(u32, u32)> {
             (0..8).filter(move |&slot| hit & !inner & (1 << slot) != 0).map(|slot| n.leaf(slot))
         })
         .collect();
-    leaves.par_sort_unstable();
+    // The collapse emits leaves in primitive order already; other trees may not.
+    if !leaves.is_sorted() {
+        leaves.par_sort_unstable();
+    }
     leaves
 }
 
