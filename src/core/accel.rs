@@ -636,9 +636,11 @@ impl Accel {
 }
 
 /// Results of `f(chunk, out)` over fixed chunks of the rays, in parallel, in input order:
-/// each chunk is traced as coherent groups and one stream ([`split_coherent`]). (Sorting rays into a coherent order first, by
-/// direction octant and a Morton curve over the origins, was measured slower on the
-/// 1M-triangle benchmark: the sort cost more than it saved.)
+/// each chunk is traced as coherent groups and one stream ([`split_coherent`]), the groups
+/// regrouped into tiles when the chunk's runs form image rows ([`order_in_tiles`]). (Sorting
+/// rays into a coherent order first, by direction octant and a Morton curve over the
+/// origins, was measured slower on the 1M-triangle benchmark: the sort cost more than it
+/// saved.)
 fn chunked<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&[Ray], &mut [T]) + Sync) -> Vec<T> {
     let mut out = vec![T::default(); rays.len()];
     out.par_chunks_mut(BATCH_CHUNK).zip(rays.par_chunks(BATCH_CHUNK)).for_each(|(o, r)| f(r, o));
