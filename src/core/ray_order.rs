@@ -64,26 +64,25 @@ pub(crate) fn order_in_tiles(rays: &[Ray], grouped: Vec<u32>, reach_m: f32) -> V
 }
 
 /// The row length of the batch in runs: the stride `s` for which run `k + s` starts next to
-/// run `k` (nearer than [`NEIGHBOUR_FRACTION`] of a run's mean length, in the median over
-/// sampled coherent runs, so that the seams between images do not count), the smallest such
-/// distance winning among the strides from three coherent runs to their nearest successors; `None` when no stride does. Rays are
-/// compared by the points `origin + reach_m * dir`, so rays from one eye compare by
-/// direction and parallel rays by origin.
+/// run `k`, nearer than [`NEIGHBOUR_FRACTION`] of a run's mean length in the median over
+/// sampled coherent runs (so that the seams between images do not count). The candidates are
+/// the strides from three coherent runs to the runs that start nearest after them; the
+/// smallest median wins, and `None` means no candidate passes. Rays are compared by the points
+/// `origin + reach_m * dir`, so rays from one eye compare by direction and parallel rays by
+/// origin.
 fn row_stride(rays: &[Ray], coherent: &[bool], reach_m: f32) -> Option<usize> {
     let point = |i: usize| rays[i].origin + reach_m * rays[i].dir;
     let starts: Vec<Vec3> = (0..coherent.len()).map(|run| point(run * GROUP_WIDTH)).collect();
-    let (mut length, mut runs) = (0.0, 0);
-    for run in (0..coherent.len()).filter(|&run| coherent[run]) {
-        length += point(run * GROUP_WIDTH + GROUP_WIDTH - 1).distance(starts[run]);
-        runs += 1;
-    }
-    if runs == 0 || !(length > 0.0 && length.is_finite()) {
+    let coherent_runs: Vec<usize> = (0..coherent.len()).filter(|&run| coherent[run]).collect();
+    let length: f32 = coherent_runs
+        .iter()
+        .map(|&run| point(run * GROUP_WIDTH + GROUP_WIDTH - 1).distance(starts[run]))
+        .sum();
+    if !(length > 0.0 && length.is_finite()) {
         return None;
     }
-    let limit = NEIGHBOUR_FRACTION * length / runs as f32;
+    let limit = NEIGHBOUR_FRACTION * length / coherent_runs.len() as f32;
     let max_stride = coherent.len() / TILE_ROWS;
-    // Candidates: for three coherent runs, the stride to the nearest coherent run after them.
-    let coherent_runs: Vec<usize> = (0..coherent.len()).filter(|&run| coherent[run]).collect();
     let nearest_after = |k: usize| {
         (1..=max_stride.min(coherent.len() - 1 - k))
             .filter(|&s| coherent[k + s])
