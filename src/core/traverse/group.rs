@@ -147,10 +147,10 @@ fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group
         while m != 0 {
             let r = m.trailing_zeros() as usize;
             m &= m - 1;
-            if g.visitors[r].test(first, count) {
-                g.found |= 1 << r;
-                g.active &= !(1 << r);
-            }
+            // Without a branch: whether a ray hits is not predictable.
+            let hit = u32::from(g.visitors[r].test(first, count)) << r;
+            g.found |= hit;
+            g.active &= !hit;
         }
         if g.active == 0 {
             return false;
