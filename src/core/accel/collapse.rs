@@ -138,6 +138,25 @@ struct Emit<'a> {
 }
 
 impl Emit<'_> {
+    /// Starts loading the children of binary node `n` and their decisions: the emission, too,
+    /// walks nodes scattered through memory.
+    #[inline(always)]
+    fn prefetch_children(&self, n: usize) {
+        let node = &self.nodes[n];
+        if node.is_leaf() {
+            return;
+        }
+        let first = node.first_index as usize;
+        // A pair of 48-byte nodes may span two cache lines.
+        if let (Some(a), Some(b), Some(d)) =
+            (self.nodes.get(first), self.nodes.get(first + 1), self.decisions.get(first))
+        {
+            prefetch(a);
+            prefetch(b);
+            prefetch(d);
+        }
+    }
+
     /// The binary nodes that fill the slots of `n` with decision `i`.
     fn children(&self, n: usize, i: usize, children: &mut [usize; 8], count: &mut usize) {
         let node = &self.nodes[n];
@@ -146,6 +165,9 @@ impl Emit<'_> {
             *count += 1;
             return;
         }
+        let first = node.first_index as usize;
+        self.prefetch_children(first);
+        self.prefetch_children(first + 1);
         let (_, left, right) = unpack(self.decisions, n, i);
         for (c, d) in [(node.first_index as usize, left), (node.first_index as usize + 1, right)] {
             if unpack(self.decisions, c, d).0 == DISTRIBUTE {
@@ -184,6 +206,10 @@ impl Emit<'_> {
         let mut internal = Internal::default();
         let mut prims = 0u32;
         let p = Vec3A::from(node.p);
+        // The next loads: the leaves' primitives and the internal children's own children.
+        for &c in &children[..count] {
+            self.prefetch_children(c);
+        }
         for (i, &c) in children[..count].iter().enumerate() {
             let b = self.nodes[c].aabb();
             let lo = ((b.min - p) * rcp_e).floor().clamp(Vec3A::ZERO, Vec3A::splat(255.0));
