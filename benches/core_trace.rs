@@ -1,5 +1,6 @@
 //! `cargo bench --bench core_trace`: build time and Mrays/s of the tracing core on the
-//! generated 1M-triangle terrain, coherent and incoherent rays (medians of 5 runs).
+//! generated 1M-triangle terrain, coherent, incoherent and hit-heavy coherent rays (medians
+//! of 5 runs).
 //! The same figures come from `propsim bench trace`, which also takes your own mesh and rays.
 
 use std::time::Instant;
@@ -13,7 +14,13 @@ fn main() {
     let (accel, builds) = timed_builds(&mesh, 3, propsim::core::BuildQuality::default());
     println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
     println!("build: {:.3} s (median of 3)", median(builds));
-    for (name, rays) in [("coherent", coherent_rays(1 << 20)), ("incoherent", incoherent_rays(1 << 20, 1))] {
+    for name in ["coherent", "incoherent", "hit-heavy"] {
+        // One set in memory at a time.
+        let rays = match name {
+            "coherent" => coherent_rays(1 << 20, 35.0),
+            "incoherent" => incoherent_rays(1 << 20, 1),
+            _ => coherent_rays(1 << 20, 20.0),
+        };
         let t = Instant::now();
         let f = trace_figures(&accel, &rays, 5);
         println!(
