@@ -350,11 +350,11 @@ pub fn collapse(bvh2: &Bvh2, max_prims: u32) -> (Vec<CwBvhNode>, Vec<u32>) {
     }
     let decisions: Vec<AtomicU64> =
         (0..bvh2.nodes.len()).into_par_iter().map(|_| AtomicU64::new(0)).collect();
-    let compact: Vec<WalkNode> = bvh2.nodes.par_iter().map(WalkNode::new).collect();
-    cost(&compact, &decisions, 0, max_prims.clamp(1, 3), 0);
+    let walk: Vec<WalkNode> = bvh2.nodes.par_iter().map(WalkNode::new).collect();
+    cost(&walk, &decisions, 0, max_prims.clamp(1, 3), 0);
     let emit = Emit {
         nodes: &bvh2.nodes,
-        walk: &compact,
+        walk: &walk,
         decisions: &decisions,
         order: &bvh2.primitive_indices,
         out: Vec::new(),
