@@ -8,13 +8,16 @@ use super::air::Air;
 use super::image_source::{Planes, image_sources, trace_path};
 use super::metrics::{BandMetrics, band_metrics};
 use super::room::reverberation_times;
-use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
+use super::tracer::{SoundPropagation, SurfaceAcoustics, TimeBins, TraceRecord};
 use crate::core::Sphere;
 use crate::core::fixed::{add_fixed, from_fixed};
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
 use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
+
+/// The longest decay simulated, s: a ray still alive after this long stops.
+pub const MAX_SIMULATED_S: f64 = 60.0;
 
 /// Energy per band of one histogram bin.
 pub type BandEnergies = [f64; BAND_COUNT];
@@ -41,9 +44,9 @@ pub struct AcousticSettings {
     /// Rays per source.
     pub rays: u64,
     pub seed: u64,
-    /// Length of the histograms; default 1.2 x the longest Eyring time (0.2 s to 20 s): the
-    /// decay has then fallen about 60 dB, so the truncated Schroeder integral is exact to
-    /// well below the -35 dB that T30 needs.
+    /// Length of the histograms, s. `None` (the default): as long as the traced energy
+    /// lasts, so every decay runs to its end (rays stop only by Russian roulette, see
+    /// `roulette_db`), up to [`MAX_SIMULATED_S`].
     pub max_time_s: Option<f64>,
     /// Histogram bin width, seconds (1 ms).
     pub bin_s: f64,
@@ -55,8 +58,10 @@ pub struct AcousticSettings {
     /// Image sources replace the rays' early specular paths; `false` traces everything with
     /// rays (used to test the ray estimator itself).
     pub use_image_sources: bool,
-    /// A ray stops when every band has lost this many dB (at least 60).
-    pub stop_db: f64,
+    /// A ray plays Russian roulette once every band has lost this many dB (air included):
+    /// weak rays survive with a probability proportional to their energy, so the decay's
+    /// expected value is exact to its end while the tail costs little (20 to 120 dB).
+    pub roulette_db: f64,
 }
 
 impl Default for AcousticSettings {
@@ -70,7 +75,7 @@ impl Default for AcousticSettings {
             air_absorption: true,
             ism_order: 2,
             use_image_sources: true,
-            stop_db: 90.0,
+            roulette_db: 40.0,
         }
     }
 }
@@ -90,6 +95,8 @@ pub struct PairResult {
     pub metrics: [BandMetrics; BAND_COUNT],
     /// Image-source paths found (including the direct sound).
     pub specular_paths: usize,
+    /// Ray crossings of the receiver recorded in the histogram.
+    pub detections: u64,
 }
 
 /// Everything a simulation produces.
@@ -101,11 +108,14 @@ pub struct AcousticResult {
     pub speed_of_sound_m_s: f64,
     pub sabine_s: [f64; BAND_COUNT],
     pub eyring_s: [f64; BAND_COUNT],
+    /// Length of the longest histogram, s.
     pub max_time_s: f64,
     pub bin_s: f64,
     pub ism_order: u32,
     pub receiver_radii_m: Vec<f32>,
     pub pairs: Vec<PairResult>,
+    /// Ray segments traced (launches and reflections), all sources together.
+    pub segments: u64,
     /// Fraction of launched energy that escaped through holes in the mesh.
     pub escaped_energy_fraction: f64,
     pub settings: AcousticSettings,
@@ -175,8 +185,8 @@ pub fn simulate_on(
     if !(settings.bin_s > 0.0 && settings.bin_s <= 0.1) {
         return Err(format!("histogram bin {} s: must be in (0, 0.1]", settings.bin_s));
     }
-    if settings.stop_db < 60.0 || !settings.stop_db.is_finite() {
-        return Err(format!("stop level {} dB: must be at least 60 dB", settings.stop_db));
+    if !(20.0..=120.0).contains(&settings.roulette_db) {
+        return Err(format!("roulette level {} dB: must be between 20 and 120 dB", settings.roulette_db));
     }
     let scene = &world.scene;
     let report = &world.report;
@@ -190,12 +200,12 @@ pub fn simulate_on(
     let areas = &report.area_by_surface_m2[..surfaces.len().min(report.area_by_surface_m2.len())];
     let (sabine_s, eyring_s) =
         reverberation_times(volume_m3, areas, &absorption[..areas.len()], &air_per_m, c);
-    let longest = eyring_s.iter().copied().filter(|t| t.is_finite()).fold(0.0f64, f64::max);
-    let max_time_s = settings.max_time_s.unwrap_or((1.2 * longest).clamp(0.2, 20.0));
-    if !(max_time_s > 0.0 && max_time_s <= 60.0) {
-        return Err(format!("maximum time {max_time_s} s: must be in (0, 60]"));
+    let limit_s = settings.max_time_s.unwrap_or(MAX_SIMULATED_S);
+    if !(limit_s > 0.0 && limit_s <= MAX_SIMULATED_S) {
+        return Err(format!("maximum time {limit_s} s: must be in (0, {MAX_SIMULATED_S}]"));
     }
-    let bins = (max_time_s / settings.bin_s).ceil() as usize;
+    let time_bins = TimeBins { speed_of_sound_m_s: c, bin_s: settings.bin_s };
+    let bin_limit = (limit_s / settings.bin_s).ceil() as usize;
 
     for (kind, name, p) in sources
         .iter()
@@ -226,6 +236,7 @@ pub fn simulate_on(
     let planes = Planes::of(&scene.mesh);
     let mut pairs = Vec::new();
     let mut escaped = 0.0;
+    let mut segments = 0u64;
     for (si, source) in sources.iter().enumerate() {
         if !(source.power_w.is_finite() && source.power_w > 0.0) {
             return Err(format!("source \"{}\" power {} W: must be > 0", source.name, source.power_w));
@@ -235,12 +246,9 @@ pub fn simulate_on(
             receivers: &spheres,
             ray_energy_j: (1.0 / settings.rays as f64) as f32,
             air_per_m,
-            speed_of_sound_m_s: c as f32,
-            bin_s: settings.bin_s as f32,
-            bins: bins as u32,
+            bins: time_bins,
             skip_specular_up_to: settings.use_image_sources.then_some(ism_order),
-            stop_factor: 10f64.powf(-settings.stop_db / 10.0) as f32,
-            max_path_m: (max_time_s * c) as f32,
+            roulette_factor: 10f64.powf(-settings.roulette_db / 10.0) as f32,
             scene_bounds: (lo - margin, hi + margin),
         };
         let launch_spec = Launch {
@@ -250,49 +258,95 @@ pub fn simulate_on(
             domain: si as u64,
             pattern: LaunchPattern::Fibonacci,
             max_reflections: u32::MAX,
-            max_path_m: prop.max_path_m,
+            max_path_m: (limit_s * c) as f32,
         };
         let record: TraceRecord = launch_share(&world.accel, &prop, &launch_spec, cluster.share(), progress);
+        // The histogram reaches the last detection of any process (bins are agreed by a sum
+        // of one slot a process).
+        let mut last = vec![0u64; cluster.size() as usize];
+        last[cluster.share().rank as usize] =
+            record.detections.iter().map(|d| u64::from(d.bin) + 1).max().unwrap_or(0);
+        cluster.sum_u64(&mut last);
+        let traced_bins = (last.iter().copied().max().unwrap_or(0) as usize).min(bin_limit);
+        // Image-source paths (the direct sound is order 0), found on rank 0 only.
+        let src = Vec3::from(source.position);
+        let mut images = Vec::new();
+        let mut paths_of: Vec<Vec<_>> = Vec::new();
+        if cluster.is_root() {
+            if settings.use_image_sources {
+                images = image_sources(src, &planes, ism_order);
+                images.insert(0, super::image_source::ImageSource { planes: Vec::new(), images: Vec::new() });
+            }
+            paths_of = receivers
+                .iter()
+                .map(|r| {
+                    use rayon::prelude::*;
+                    let rcv = Vec3::from(r.position);
+                    images.par_iter().filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv)).collect()
+                })
+                .collect();
+        }
+        let image_bins = paths_of
+            .iter()
+            .flatten()
+            .map(|p: &super::image_source::SpecularPath| time_bins.bin_of_path(f64::from(p.length_m)) + 1)
+            .filter(|&b| b <= bin_limit)
+            .max()
+            .unwrap_or(0);
+        let bins = traced_bins.max(image_bins).max(1);
         // Fixed-point sums (of the energy per ray) are exact in any order, so every split
         // of the rays over processes and threads gives the same histograms to the last bit.
         let unit = f64::from(prop.ray_energy_j);
         let mut fixed = vec![0u128; receivers.len() * bins * BAND_COUNT];
         for d in &record.detections {
+            if d.bin as usize >= bins {
+                continue;
+            }
             let at = (d.receiver as usize * bins + d.bin as usize) * BAND_COUNT;
             for (slot, e) in fixed[at..at + BAND_COUNT].iter_mut().zip(d.energy) {
                 add_fixed(slot, f64::from(e), unit);
             }
         }
+        let mut detections = vec![0u64; receivers.len()];
+        for d in &record.detections {
+            detections[d.receiver as usize] += 1;
+        }
         drop(record.detections);
+        let mut counts = [record.segments, record.rays_escaped];
+        cluster.sum_u64(&mut counts);
+        segments += counts[0];
         let mut escaped_fixed = record.escaped.to_vec();
         cluster.sum_u128(&mut fixed);
         cluster.sum_u128(&mut escaped_fixed);
+        cluster.sum_u64(&mut detections);
         if !cluster.is_root() {
             continue;
         }
         escaped += escaped_fixed.iter().map(|&e| from_fixed(e, unit)).sum::<f64>() / BAND_COUNT as f64;
+        // Air absorption depends on the path length alone: it is applied bin by bin at the
+        // bin's middle (within exp(+-m c dt / 2) of each arrival's own path, 0.4 % at 8 kHz,
+        // and exact on average over a bin to second order).
+        let air_of_bin: Vec<BandEnergies> = (0..bins)
+            .map(|k| {
+                let l = time_bins.mid_path_m(k);
+                std::array::from_fn(|b| (-f64::from(air_per_m[b]) * l).exp())
+            })
+            .collect();
         let mut histograms: Vec<Vec<BandEnergies>> = fixed
             .chunks_exact(bins * BAND_COUNT)
             .map(|r| {
-                r.chunks_exact(BAND_COUNT).map(|b| std::array::from_fn(|k| from_fixed(b[k], unit))).collect()
+                r.chunks_exact(BAND_COUNT)
+                    .zip(&air_of_bin)
+                    .map(|(b, air)| std::array::from_fn(|k| from_fixed(b[k], unit) * air[k]))
+                    .collect()
             })
             .collect();
         drop(fixed);
-        // Image sources (the direct sound is order 0).
-        let src = Vec3::from(source.position);
-        let mut images =
-            if settings.use_image_sources { image_sources(src, &planes, ism_order) } else { Vec::new() };
-        if settings.use_image_sources {
-            images.insert(0, super::image_source::ImageSource { planes: Vec::new(), images: Vec::new() });
-        }
         for (ri, r) in receivers.iter().enumerate() {
             let rcv = Vec3::from(r.position);
-            let paths: Vec<_> = {
-                use rayon::prelude::*;
-                images.par_iter().filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv)).collect()
-            };
-            for p in &paths {
-                let bin = (f64::from(p.length_m) / c / settings.bin_s) as usize;
+            let paths = &paths_of[ri];
+            for p in paths {
+                let bin = time_bins.bin_of_path(f64::from(p.length_m));
                 if bin >= bins {
                     continue;
                 }
@@ -323,6 +377,7 @@ pub fn simulate_on(
                 histogram: hist,
                 metrics,
                 specular_paths: paths.len(),
+                detections: detections[ri],
             });
         }
     }
@@ -336,11 +391,12 @@ pub fn simulate_on(
         speed_of_sound_m_s: c,
         sabine_s,
         eyring_s,
-        max_time_s,
+        max_time_s: pairs.iter().map(|p| p.histogram.len()).max().unwrap_or(0) as f64 * settings.bin_s,
         bin_s: settings.bin_s,
         ism_order,
         receiver_radii_m: spheres.iter().map(|s| s.radius_m).collect(),
         pairs,
+        segments,
         escaped_energy_fraction: escaped / sources.len() as f64,
         settings: settings.clone(),
     }))

@@ -20,16 +20,17 @@ pub struct SurfaceAcoustics {
     pub scattering: BandValues,
 }
 
-/// What a ray carries: band energies after surface losses (air absorption is applied from
-/// the total path length when the energy is recorded), and the order of its reflections
-/// while all of them were specular (`None` once it was scattered).
+/// What a ray carries: band energies after surface losses (air absorption depends only on
+/// the path length, so it is applied to the histogram bin by bin, not ray by ray), and the
+/// order of its reflections while all of them were specular (`None` once it was scattered).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SoundRay {
     pub energy: BandValues,
     pub specular_order: Option<u32>,
 }
 
-/// Energy recorded by a receiver: `energy[b]` arrived in histogram bin `bin`.
+/// Energy recorded by a receiver: `energy[b]` arrived in histogram bin `bin`, before air
+/// absorption.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Detection {
     pub receiver: u32,
@@ -45,33 +46,50 @@ pub struct TraceRecord {
     pub detections: Vec<Detection>,
     pub escaped: [u128; BAND_COUNT],
     pub rays_escaped: u64,
+    /// Straight flights traced (a ray's launch and every reflection start one).
+    pub segments: u64,
 }
 
-/// The acoustic [`Propagation`]: surface absorption and scattering, air absorption, sphere
-/// receivers with the chord-length estimator.
+/// The acoustic [`Propagation`]: surface absorption and scattering, sphere receivers with
+/// the chord-length estimator, and Russian roulette once a ray is weak.
 pub struct SoundPropagation<'a> {
     pub surfaces: &'a [SurfaceAcoustics],
     pub receivers: &'a [Sphere],
     /// Energy per ray at launch, J (source energy / ray count).
     pub ray_energy_j: f32,
-    /// Air energy attenuation per band, 1/m.
+    /// Air energy attenuation per band, 1/m: used for the escaped energy and, through its
+    /// smallest value, to bound a ray's remaining energy in the roulette test.
     pub air_per_m: BandValues,
-    pub speed_of_sound_m_s: f32,
-    pub bin_s: f32,
-    pub bins: u32,
+    /// Histogram time bins: a detection at path length l falls in bin floor(l / c / bin_s).
+    pub bins: TimeBins,
     /// Paths that stay specular up to this order are left to the image-source method (0 with
     /// image sources on: the direct sound; `None`: rays record everything).
     pub skip_specular_up_to: Option<u32>,
-    /// A ray stops when every band is this far (as a factor) below its launch energy.
-    pub stop_factor: f32,
-    pub max_path_m: f32,
+    /// Once a ray's strongest band (with an upper bound of its air loss) falls below this
+    /// fraction of its launch energy, it plays Russian roulette at every reflection.
+    pub roulette_factor: f32,
     /// The scene's bounding box, slightly enlarged: a ray that ends outside it escaped.
     pub scene_bounds: (Vec3, Vec3),
 }
 
-impl SoundPropagation<'_> {
-    fn air_factor(&self, band: usize, path_m: f32) -> f32 {
-        (-self.air_per_m[band] * path_m).exp()
+/// Histogram time bins of width `bin_s`: the one formula that places an arrival after a path
+/// of `l` metres, floor(l / c / bin_s), computed in f64 for rays and image sources alike.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TimeBins {
+    pub speed_of_sound_m_s: f64,
+    pub bin_s: f64,
+}
+
+impl TimeBins {
+    /// The bin of an arrival after `path_m` metres (saturating for absurd paths).
+    #[inline]
+    pub fn bin_of_path(&self, path_m: f64) -> usize {
+        (path_m / self.speed_of_sound_m_s / self.bin_s) as usize
+    }
+
+    /// The path length of the middle of bin `k`, metres.
+    pub fn mid_path_m(&self, k: usize) -> f64 {
+        (k as f64 + 0.5) * self.bin_s * self.speed_of_sound_m_s
     }
 }
 
@@ -89,6 +107,7 @@ impl Propagation for SoundPropagation<'_> {
             *a = a.saturating_add(b);
         }
         into.rays_escaped += other.rays_escaped;
+        into.segments += other.segments;
     }
 
     fn emit(&self, _: u64, _: Vec3) -> SoundRay {
@@ -98,7 +117,8 @@ impl Propagation for SoundPropagation<'_> {
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds
     /// E l / V (energy density times... integrated over time: J/m^2), whose expectation over
     /// rays is the energy fluence E_source / (4 pi d^2) of the direct sound for any radius
-    /// and ray count (Vorlaender, Auralization, sec. 11.3; DESIGN.md sec. 3).
+    /// and ray count (Vorlaender, Auralization, sec. 11.3; docs/acoustics.md).
+    #[inline]
     fn segment(
         &self,
         acc: &mut TraceRecord,
@@ -108,16 +128,19 @@ impl Propagation for SoundPropagation<'_> {
         path_before_m: f32,
         _: u32,
     ) {
-        let end = ray.at(length_m);
-        let outside = end.cmplt(self.scene_bounds.0).any() || end.cmpgt(self.scene_bounds.1).any();
-        if length_m >= ray.t_max && outside {
-            // Flew out of the scene's bounds without a hit: it left through a hole.
-            acc.rays_escaped += 1;
-            for b in 0..BAND_COUNT {
-                let e = f64::from(ray_state.energy[b] * self.air_factor(b, path_before_m));
-                add_fixed(&mut acc.escaped[b], e, f64::from(self.ray_energy_j));
+        acc.segments += 1;
+        if length_m >= ray.t_max {
+            let end = ray.at(length_m);
+            if end.cmplt(self.scene_bounds.0).any() || end.cmpgt(self.scene_bounds.1).any() {
+                // Flew out of the scene's bounds without a hit: it left through a hole.
+                acc.rays_escaped += 1;
+                for b in 0..BAND_COUNT {
+                    let air = (-self.air_per_m[b] * path_before_m).exp();
+                    let e = f64::from(ray_state.energy[b] * air);
+                    add_fixed(&mut acc.escaped[b], e, f64::from(self.ray_energy_j));
+                }
+                return;
             }
-            return;
         }
         if let (Some(order), Some(limit)) = (ray_state.specular_order, self.skip_specular_up_to)
             && order <= limit
@@ -133,15 +156,9 @@ impl Propagation for SoundPropagation<'_> {
             }
             let chord = b - a;
             let path_m = path_before_m + 0.5 * (a + b);
-            let bin = (path_m / self.speed_of_sound_m_s / self.bin_s) as u32;
-            if bin >= self.bins {
-                continue;
-            }
-            let volume = 4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3);
-            let mut energy = [0.0; BAND_COUNT];
-            for (k, e) in energy.iter_mut().enumerate() {
-                *e = ray_state.energy[k] * self.air_factor(k, path_m) * chord / volume;
-            }
+            let bin = self.bins.bin_of_path(f64::from(path_m)).min(u32::MAX as usize) as u32;
+            let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
+            let energy = ray_state.energy.map(|e| e * per_volume);
             acc.detections.push(Detection { receiver: i as u32, bin, energy });
         }
     }
@@ -153,6 +170,13 @@ impl Propagation for SoundPropagation<'_> {
     /// total energy is the same on both branches, so band weights cannot grow without bound
     /// over many reflections (a plain mean of s_b lets them, which made rare rays carry
     /// -20 dB of energy into the late decay).
+    ///
+    /// Then Russian roulette (Arvo and Kirk 1990): once the ray's strongest band, times the
+    /// smallest air loss over its path, is below `roulette_factor` of its launch energy, it
+    /// survives with probability q = that level / threshold and is scaled by 1 / q. The
+    /// expected energy of every band is unchanged, so the decay is traced to its end without
+    /// a cut-off, while the weak tail costs a few reflections a ray.
+    #[inline]
     fn interact(
         &self,
         _: &mut TraceRecord,
@@ -163,23 +187,42 @@ impl Propagation for SoundPropagation<'_> {
         rng: &mut Rng64,
     ) -> Bounce {
         let surface = &self.surfaces[hit.surface as usize];
-        let total: f32 = ray_state.energy.iter().sum();
-        let weighted: f32 = ray_state.energy.iter().zip(surface.scattering).map(|(e, s)| e * s).sum();
-        let s_mean = if total > 0.0 { (weighted / total).clamp(0.0, 1.0) } else { 0.0 };
-        let diffuse = uniform(rng) < s_mean;
-        let mut alive = false;
-        let threshold = self.ray_energy_j * self.stop_factor;
+        let (a, s) = (&surface.absorption, &surface.scattering);
+        let e = &mut ray_state.energy;
+        // Lane-wise arithmetic and fixed-order sums over the eight bands (they vectorise).
+        let mut scattered = [0.0f32; BAND_COUNT];
         for b in 0..BAND_COUNT {
-            let split = if diffuse {
-                surface.scattering[b] / s_mean
-            } else {
-                (1.0 - surface.scattering[b]) / (1.0 - s_mean)
-            };
-            ray_state.energy[b] *= (1.0 - surface.absorption[b]) * split;
-            alive |= ray_state.energy[b] * self.air_factor(b, path_m) > threshold;
+            scattered[b] = e[b] * s[b];
         }
-        if !alive {
-            return Bounce::Stop;
+        let (total, weighted) = (sum_bands(e), sum_bands(&scattered));
+        let s_mean = if total > 0.0 { (weighted / total).clamp(0.0, 1.0) } else { 0.0 };
+        let diffuse = s_mean > 0.0 && uniform(rng) < s_mean;
+        if diffuse {
+            let k = 1.0 / s_mean;
+            for b in 0..BAND_COUNT {
+                e[b] = scattered[b] * (1.0 - a[b]) * k;
+            }
+        } else {
+            let k = 1.0 / (1.0 - s_mean);
+            for b in 0..BAND_COUNT {
+                e[b] = (e[b] - scattered[b]) * (1.0 - a[b]) * k;
+            }
+        }
+        let mut peak = [0.0f32; 4];
+        for b in 0..BAND_COUNT {
+            peak[b % 4] = peak[b % 4].max(e[b]);
+        }
+        let peak = peak[0].max(peak[1]).max(peak[2].max(peak[3]));
+        let threshold = self.ray_energy_j * self.roulette_factor;
+        let air_min = self.air_per_m.iter().fold(f32::INFINITY, |m, &x| m.min(x));
+        let level = peak * (-air_min * path_m).exp();
+        if !(level >= threshold) {
+            let survival = level / threshold;
+            if !(uniform(rng) < survival) {
+                return Bounce::Stop;
+            }
+            let boost = 1.0 / survival;
+            e.iter_mut().for_each(|x| *x *= boost);
         }
         let n = hit.facing_normal();
         if diffuse {
@@ -191,4 +234,10 @@ impl Propagation for SoundPropagation<'_> {
             Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
         }
     }
+}
+
+/// The sum of eight band values in a fixed order (pairwise, so that it vectorises).
+#[inline(always)]
+fn sum_bands(v: &BandValues) -> f32 {
+    ((v[0] + v[4]) + (v[2] + v[6])) + ((v[1] + v[5]) + (v[3] + v[7]))
 }

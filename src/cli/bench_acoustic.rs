@@ -56,6 +56,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
         };
         let mut times = Vec::new();
         let mut pairs = 0;
+        let mut segments = 0;
         for _ in 0..args.repeat.max(1) {
             let t = Instant::now();
             let r = simulate(&world, &sources, &receivers, &settings, &|_| {})
@@ -65,17 +66,20 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
             }
             times.push(t.elapsed().as_secs_f64());
             pairs = r.pairs.len();
+            segments = r.segments;
         }
         let wall = median(times);
         let rays = args.rays * sources.len() as u64;
         println!(
-            "{}: {} pairs, {} rays per source, wall {:.2} s (median of {}), {:.0} rays/s",
+            "{}: {} pairs, {} rays per source, wall {:.2} s (median of {}), {:.0} rays/s, {:.1} M ray segments/s ({} segments)",
             path.display(),
             pairs,
             args.rays,
             wall,
             args.repeat.max(1),
-            rays as f64 / wall
+            rays as f64 / wall,
+            segments as f64 / wall / 1e6,
+            segments
         );
     }
     if let Some(mb) = peak_rss_mb() {

@@ -13,6 +13,8 @@ use rayon::prelude::*;
 use super::accel::Accel;
 use super::hit::Hit;
 use super::ray::Ray;
+use rand::SeedableRng;
+
 use super::rng::{Rng64, stream, uniform};
 use super::sampling::{fibonacci_sphere, uniform_sphere};
 use super::share::Share;
@@ -102,69 +104,88 @@ pub struct Launch {
     pub max_path_m: f32,
 }
 
-/// Traces one ray to its end, depositing into `accum`.
-pub fn trace_ray<P: Propagation>(accel: &Accel, prop: &P, launch: &Launch, index: u64, accum: &mut P::Accum) {
-    trace_ray_rotated(accel, prop, launch, lattice_rotation(launch), index, accum);
-}
-
 /// The random rotation about z of a launch's Fibonacci lattice, shared by all its rays.
 fn lattice_rotation(launch: &Launch) -> f32 {
     uniform(&mut stream(launch.seed, launch.domain, u64::MAX))
 }
 
-/// [`trace_ray`] with the lattice rotation computed once per launch.
-fn trace_ray_rotated<P: Propagation>(
-    accel: &Accel,
-    prop: &P,
-    launch: &Launch,
-    offset: f32,
-    index: u64,
-    accum: &mut P::Accum,
-) {
+/// A ray in flight: where it goes next, what it carries, how far it has come.
+struct Flight<P> {
+    ray: Ray,
+    payload: P,
+    path_m: f32,
+    reflections: u32,
+    rng: Rng64,
+}
+
+/// Ray `index`'s flight as it leaves the source.
+fn depart<P: Propagation>(prop: &P, launch: &Launch, rotation: f32, index: u64) -> Flight<P::Payload> {
     let mut rng = stream(launch.seed, launch.domain, index);
     let dir = match launch.pattern {
-        LaunchPattern::Fibonacci => fibonacci_sphere(index as usize, launch.rays as usize, offset),
+        LaunchPattern::Fibonacci => fibonacci_sphere(index as usize, launch.rays as usize, rotation),
         LaunchPattern::Random => uniform_sphere(Vec2::new(uniform(&mut rng), uniform(&mut rng))),
         LaunchPattern::Fixed(d) => d,
     };
     let payload = prop.emit(index, dir);
-    trace_path(accel, prop, launch, Ray::new(launch.origin, dir), payload, 0.0, 0, &mut rng, accum);
+    Flight { ray: Ray::new(launch.origin, dir), payload, path_m: 0.0, reflections: 0, rng }
 }
 
-/// Follows one ray (or a transmitted branch of it) from `ray` to its end.
-#[allow(clippy::too_many_arguments)]
-fn trace_path<P: Propagation>(
+/// Traces rays `first..last` of a launch to their ends, bounce by bounce: every ray still in
+/// flight is traced through one batch query ([`Accel::closest_hits_into`], the code that
+/// `propsim bench trace` measures), then each deposits its segment and meets its surface in
+/// ray order. The order of deposits depends only on the block, never on threads.
+fn trace_block<P: Propagation>(
     accel: &Accel,
     prop: &P,
     launch: &Launch,
-    mut ray: Ray,
-    mut payload: P::Payload,
-    mut path_m: f32,
-    mut reflections: u32,
-    rng: &mut Rng64,
+    rotation: f32,
+    (first, last): (u64, u64),
     accum: &mut P::Accum,
 ) {
-    loop {
-        ray.t_max = (launch.max_path_m - path_m).max(0.0);
-        let hit = accel.mesh.closest_hit(&ray);
-        let length = hit.as_ref().map_or(ray.t_max, |h| h.t);
-        prop.segment(accum, &payload, &ray, length, path_m, reflections);
-        let Some(hit) = hit else { break };
-        path_m += hit.t;
-        if reflections >= launch.max_reflections {
-            break;
-        }
-        if let Some(through) = prop.transmit(&payload, &hit, ray.dir) {
-            let branch = Ray::spawn(hit.point, hit.normal, ray.dir);
-            trace_path(accel, prop, launch, branch, through, path_m, reflections + 1, rng, accum);
-        }
-        match prop.interact(accum, &mut payload, &hit, ray.dir, path_m, rng) {
-            Bounce::Continue(d) => {
-                ray = Ray::spawn(hit.point, hit.normal, d);
-                reflections += 1;
+    let mut flights: Vec<Flight<P::Payload>> =
+        (first..last).map(|i| depart(prop, launch, rotation, i)).collect();
+    let mut branches = Vec::new();
+    let mut rays: Vec<Ray> = Vec::with_capacity(flights.len());
+    let mut hits: Vec<Option<Hit>> = Vec::with_capacity(flights.len());
+    while !flights.is_empty() {
+        rays.clear();
+        rays.extend(flights.iter().map(|f| Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray }));
+        // Every entry is overwritten by the query: only new ones need a value.
+        hits.resize(rays.len(), None);
+        accel.closest_hits_into(&rays, &mut hits);
+        // Flights that go on are kept in order at the front (a stable compaction in place).
+        let mut kept = 0;
+        for (i, (ray, hit)) in rays.iter().zip(&hits).enumerate() {
+            let f = &mut flights[i];
+            let length = hit.as_ref().map_or(ray.t_max, |h| h.t);
+            prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
+            let Some(hit) = hit else { continue };
+            f.path_m += hit.t;
+            if f.reflections >= launch.max_reflections {
+                continue;
             }
-            Bounce::Stop => break,
+            if let Some(through) = prop.transmit(&f.payload, hit, ray.dir) {
+                // The branch draws from its own stream, seeded from its parent's.
+                branches.push(Flight {
+                    ray: Ray::spawn(hit.point, hit.normal, ray.dir),
+                    payload: through,
+                    path_m: f.path_m,
+                    reflections: f.reflections + 1,
+                    rng: Rng64::from_rng(&mut f.rng),
+                });
+            }
+            match prop.interact(accum, &mut f.payload, hit, ray.dir, f.path_m, &mut f.rng) {
+                Bounce::Continue(d) => {
+                    f.ray = Ray::spawn(hit.point, hit.normal, d);
+                    f.reflections += 1;
+                    flights.swap(kept, i);
+                    kept += 1;
+                }
+                Bounce::Stop => {}
+            }
         }
+        flights.truncate(kept);
+        flights.append(&mut branches);
     }
 }
 
@@ -203,9 +224,7 @@ pub fn launch_share<P: Propagation>(
                 let mut acc = prop.new_accum();
                 let first = b * LAUNCH_BLOCK as u64;
                 let last = (first + LAUNCH_BLOCK as u64).min(launch.rays);
-                for i in first..last {
-                    trace_ray_rotated(accel, prop, launch, offset, i, &mut acc);
-                }
+                trace_block(accel, prop, launch, offset, (first, last), &mut acc);
                 progress(last - first);
                 acc
             })
