@@ -22,6 +22,9 @@ fn bras_cr2_volume_area_and_positions() {
     assert!(w.check_acoustic_points().is_ok());
     let a = w.scene.desc.acoustic.as_ref().unwrap();
     assert_eq!((a.sources.len(), a.receivers.len()), (2, 5));
+    // The air measured in the room (BRAS documentation): 19.5 C, 41.7 % relative humidity.
+    let (t, h) = (a.temperature_c.unwrap(), a.relative_humidity_percent.unwrap());
+    assert!((t - 19.5).abs() < 1e-4 && (h - 41.7).abs() < 1e-4, "{t} C, {h} %");
     assert!(w.scene.surfaces.iter().all(|s| s.material.as_ref().is_some_and(|m| m.acoustic.is_some())));
 }
 
