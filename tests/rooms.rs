@@ -28,6 +28,41 @@ fn bras_cr2_volume_area_and_positions() {
     assert!(w.scene.surfaces.iter().all(|s| s.material.as_ref().is_some_and(|m| m.acoustic.is_some())));
 }
 
+/// Every object of the shipped CR2, its three radiator boxes included, is wound like the room
+/// shell: just off each triangle, on the side its normal points to, lies the outside of the air
+/// (BRAS's convention, `normals_point_out_of_air`), and just behind it the air. The built-in
+/// scene embeds the same files.
+#[test]
+fn bras_cr2_is_wound_like_its_walls_everywhere() {
+    for w in [
+        world("rooms/bras_cr2/scene.toml"),
+        World::build(scene::load(Path::new("builtin:bras_cr2"), &LoadOptions::default()).unwrap()),
+    ] {
+        let r = &w.report;
+        assert_eq!(r.normals_point_out_of_air, Some(true), "the shell's normals");
+        let mesh = &w.scene.mesh;
+        let offset_m = 2e-3;
+        let wrong: Vec<usize> = (0..mesh.triangle_count())
+            .filter(|&t| {
+                let [a, b, c] = mesh.corners(t);
+                let n = (b - a).cross(c - a).normalize();
+                let centre = (a + b + c) / 3.0;
+                w.is_inside(centre + offset_m * n) != Some(false)
+                    || w.is_inside(centre - offset_m * n) != Some(true)
+            })
+            .collect();
+        assert!(
+            wrong.is_empty(),
+            "{} of {} triangles face into the air: {wrong:?}",
+            wrong.len(),
+            mesh.triangle_count()
+        );
+        // Wound alike, the plain divergence sum over all triangles is the air volume.
+        let air = r.air_volume_m3.unwrap();
+        assert!((r.divergence_volume_m3 - air).abs() < 1e-3, "{} vs {air} m^3", r.divergence_volume_m3);
+    }
+}
+
 #[test]
 fn bras_cr4_flags_its_internal_sheet() {
     let w = world("rooms/bras_cr4/scene.toml");
