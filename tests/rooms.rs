@@ -22,7 +22,45 @@ fn bras_cr2_volume_area_and_positions() {
     assert!(w.check_acoustic_points().is_ok());
     let a = w.scene.desc.acoustic.as_ref().unwrap();
     assert_eq!((a.sources.len(), a.receivers.len()), (2, 5));
+    // The air measured in the room (BRAS documentation): 19.5 C, 41.7 % relative humidity.
+    let (t, h) = (a.temperature_c.unwrap(), a.relative_humidity_percent.unwrap());
+    assert!((t - 19.5).abs() < 1e-4 && (h - 41.7).abs() < 1e-4, "{t} C, {h} %");
     assert!(w.scene.surfaces.iter().all(|s| s.material.as_ref().is_some_and(|m| m.acoustic.is_some())));
+}
+
+/// Every object of the shipped CR2, its three radiator boxes included, is wound like the room
+/// shell: just off each triangle, on the side its normal points to, lies the outside of the air
+/// (BRAS's convention, `normals_point_out_of_air`), and just behind it the air. The built-in
+/// scene embeds the same files.
+#[test]
+fn bras_cr2_is_wound_like_its_walls_everywhere() {
+    for w in [
+        world("rooms/bras_cr2/scene.toml"),
+        World::build(scene::load(Path::new("builtin:bras_cr2"), &LoadOptions::default()).unwrap()),
+    ] {
+        let r = &w.report;
+        assert_eq!(r.normals_point_out_of_air, Some(true), "the shell's normals");
+        let mesh = &w.scene.mesh;
+        let offset_m = 2e-3;
+        let wrong: Vec<usize> = (0..mesh.triangle_count())
+            .filter(|&t| {
+                let [a, b, c] = mesh.corners(t);
+                let n = (b - a).cross(c - a).normalize();
+                let centre = (a + b + c) / 3.0;
+                w.is_inside(centre + offset_m * n) != Some(false)
+                    || w.is_inside(centre - offset_m * n) != Some(true)
+            })
+            .collect();
+        assert!(
+            wrong.is_empty(),
+            "{} of {} triangles face into the air: {wrong:?}",
+            wrong.len(),
+            mesh.triangle_count()
+        );
+        // Wound alike, the plain divergence sum over all triangles is the air volume.
+        let air = r.air_volume_m3.unwrap();
+        assert!((r.divergence_volume_m3 - air).abs() < 1e-3, "{} vs {air} m^3", r.divergence_volume_m3);
+    }
 }
 
 #[test]

@@ -23,10 +23,10 @@ pub struct AcousticArgs {
     #[arg(default_value = super::DEFAULT_SCENE)]
     pub scene: PathBuf,
     /// Source position X,Y,Z (repeatable); replaces the scene's sources.
-    #[arg(long = "source", value_parser = super::parse_point)]
+    #[arg(long = "source", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub sources: Vec<[f32; 3]>,
     /// Receiver position X,Y,Z (repeatable); replaces the scene's receivers.
-    #[arg(long = "receiver", value_parser = super::parse_point)]
+    #[arg(long = "receiver", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub receivers: Vec<[f32; 3]>,
     /// Extra materials file(s).
     #[arg(long = "materials")]

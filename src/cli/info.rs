@@ -18,7 +18,7 @@ pub struct InfoArgs {
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
     /// Extra points to test for inside/outside, as X,Y,Z.
-    #[arg(long = "point", value_parser = super::parse_point)]
+    #[arg(long = "point", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub points: Vec<[f32; 3]>,
     /// Print the report as JSON.
     #[arg(long)]

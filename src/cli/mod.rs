@@ -37,11 +37,12 @@ use std::path::PathBuf;
 
 use crate::dist::Cluster;
 
-use clap::{Parser, Subcommand};
+use clap::{Arg, Parser, Subcommand};
 
 /// propsim: one ray-tracing core for images, room acoustics and radio coverage.
 #[derive(Parser, Debug)]
 #[command(name = "propsim", version, about, long_about = None)]
+#[command(mut_args = allow_negative_numbers, mut_subcommands = allow_negative_numbers_in)]
 pub struct Cli {
     /// Worker threads (default: all cores).
     #[arg(long, global = true)]
@@ -83,6 +84,18 @@ pub enum BenchCommand {
     Acoustic(bench_acoustic::BenchAcousticArgs),
     /// Radio coverage map speed: wall time and rays/s (street canyon, 1 m cells, depth 3).
     Rf(rf::BenchRfArgs),
+}
+
+/// Lets a flag that takes a value take a negative number (`--temperature-c -5`). Lists such
+/// as `--receiver -1,2,3` are not numbers to clap: their flags also set `allow_hyphen_values`.
+fn allow_negative_numbers(arg: Arg) -> Arg {
+    let takes_value = arg.get_action().takes_values() && !arg.is_positional();
+    arg.allow_negative_numbers(takes_value)
+}
+
+/// [`allow_negative_numbers`] for every flag of `cmd` and of its subcommands, at any depth.
+fn allow_negative_numbers_in(cmd: clap::Command) -> clap::Command {
+    cmd.mut_args(allow_negative_numbers).mut_subcommands(allow_negative_numbers_in)
 }
 
 /// Runs the command line as one process of `cluster`; the error, if any, is for `main` to

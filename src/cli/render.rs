@@ -45,26 +45,20 @@ pub struct RenderArgs {
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
     /// Camera position X,Y,Z (default: the scene's camera, else an automatic view).
-    #[arg(long)]
-    pub eye: Option<String>,
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub eye: Option<[f32; 3]>,
     /// Point looked at, X,Y,Z.
-    #[arg(long)]
-    pub target: Option<String>,
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub target: Option<[f32; 3]>,
     /// Up direction, X,Y,Z (default 0,0,1).
-    #[arg(long)]
-    pub up: Option<String>,
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub up: Option<[f32; 3]>,
     /// Vertical field of view, degrees.
     #[arg(long = "fov-deg")]
     pub fov_deg: Option<f32>,
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
-}
-
-fn point(flag: &str, s: &Option<String>) -> anyhow::Result<Option<Vec3>> {
-    s.as_deref()
-        .map(|s| super::parse_point(s).map(Vec3::from).map_err(|e| anyhow!("--{flag} {e}")))
-        .transpose()
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -99,16 +93,16 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
         ),
         None => {
             let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-            let up = point("up", &args.up)?.unwrap_or(Vec3::Z);
+            let up = args.up.map_or(Vec3::Z, Vec3::from);
             let fov = args.fov_deg.unwrap_or(AUTO_FOV_DEG);
             let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 { fov } else { AUTO_FOV_DEG };
             let (eye, target) = Camera::auto_view(lo, hi, up, fov_ok);
             (eye, target, up, fov, (0.0, None))
         }
     };
-    let eye = point("eye", &args.eye)?.unwrap_or(eye);
-    let target = point("target", &args.target)?.unwrap_or(target);
-    let up = point("up", &args.up)?.unwrap_or(up);
+    let eye = args.eye.map_or(eye, Vec3::from);
+    let target = args.target.map_or(target, Vec3::from);
+    let up = args.up.map_or(up, Vec3::from);
     let fov = args.fov_deg.unwrap_or(fov);
     let mut cam = Camera::look_at(eye, target, up, fov, aspect).map_err(|e| anyhow!("{e}"))?;
     cam.set_lens(lens.0, lens.1).map_err(|e| anyhow!("{e}"))?;

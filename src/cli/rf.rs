@@ -33,10 +33,10 @@ pub struct RfArgs {
     #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
     pub tx: Option<[f32; 3]>,
     /// Carrier frequency, GHz (default: the scene's, else 3.5).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long)]
     pub freq_ghz: Option<f64>,
     /// Transmit power, dBm (default: the scene's, else 30).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long)]
     pub tx_power_dbm: Option<f64>,
     /// Transmit antenna: isotropic or dipole (half-wave, along z for vertical polarisation).
     #[arg(long)]
@@ -48,7 +48,7 @@ pub struct RfArgs {
     #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
     pub orientation: Option<[f32; 3]>,
     /// Height of the coverage plane, m (default: the scene's, else 1.5).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long)]
     pub grid_height: Option<f64>,
     /// Cell size, m (default: the scene's, else 1).
     #[arg(long)]
