@@ -159,6 +159,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         bins: TimeBins { speed_of_sound_m_s: f64::from(c), bin_s: 1e-3 },
         skip_specular_up_to: None,
         roulette_factor: 1e-9,
+        diffuse_rain: None,
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };
     let spec = Launch {
@@ -194,8 +195,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
 /// to `max_time_s`, each adding (1 - a)^n / (4 pi d^2) exp(-m d) after its n reflections.
 fn box_image_source_histogram(
     size: [f64; 3],
-    source: [f64; 3],
-    receiver: [f64; 3],
+    (source, receiver): ([f64; 3], [f64; 3]),
     reflection: f64,
     air_per_m: [f64; 8],
     speed_m_s: f64,
@@ -254,8 +254,7 @@ fn specular_shoebox_t30_matches_the_exact_image_source_decay_in_every_band() {
     let c = result.speed_of_sound_m_s;
     let reference = box_image_source_histogram(
         [10.0, 8.0, 3.0],
-        s.map(f64::from),
-        r.map(f64::from),
+        (s.map(f64::from), r.map(f64::from)),
         0.8,
         air,
         c,
@@ -275,4 +274,98 @@ fn specular_shoebox_t30_matches_the_exact_image_source_decay_in_every_band() {
             "{hz} Hz: T30 {simulated:.4} s vs exact image sources {exact:.4} s"
         );
     }
+}
+
+/// A box room (material "test_wall") with one analytic sphere (material "ball") in it.
+fn box_room_with_sphere(
+    dir: &Path,
+    size: [f32; 3],
+    wall: (f32, f32),
+    ball: (f32, f32),
+    sphere: ([f32; 3], f32),
+) -> World {
+    let [x, y, z] = size;
+    let obj = format!(
+        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
+         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+    );
+    std::fs::write(dir.join("room.obj"), obj).unwrap();
+    let ([cx, cy, cz], r) = sphere;
+    let toml = format!(
+        "obj = \"room.obj\"\n\
+         [materials.test_wall]\nabsorption = {}\nscattering = {}\n\
+         [materials.ball]\nabsorption = {}\nscattering = {}\n\
+         [[spheres]]\ncenter = [{cx}, {cy}, {cz}]\nradius_m = {r}\nmaterial = \"ball\"\n",
+        wall.0, wall.1, ball.0, ball.1
+    );
+    let path = dir.join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    World::build(scene::load(&path, &LoadOptions::default()).unwrap())
+}
+
+/// Spheres are part of the room: an absorbing one between source and receiver casts an
+/// acoustic shadow (no direct sound, from rays or image sources), and a source inside one
+/// is an error.
+#[test]
+fn a_sphere_blocks_the_direct_sound() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_room_with_sphere(
+        dir.path(),
+        [20.0, 20.0, 20.0],
+        (1.0, 0.0),
+        (1.0, 0.0),
+        ([10.0, 10.0, 10.0], 1.0),
+    );
+    let (s, r) = ([6.0, 10.0, 10.0], [14.0, 10.0, 10.0]);
+    for use_image_sources in [true, false] {
+        let settings = AcousticSettings {
+            rays: 200_000,
+            use_image_sources,
+            air_absorption: false,
+            max_time_s: Some(0.2),
+            ..Default::default()
+        };
+        let result = simulate(&world, &src(s), &rcv(r, Some(0.3)), &settings, &|_| {}).unwrap();
+        let total: f64 = result.pairs[0].histogram.iter().map(|h| h[3]).sum();
+        let free_field = 1.0 / (4.0 * std::f64::consts::PI * 64.0);
+        assert!(total < 1e-3 * free_field, "image sources {use_image_sources}: {total} behind the sphere");
+    }
+    let inside =
+        simulate(&world, &src([10.2, 10.0, 10.0]), &rcv(r, None), &AcousticSettings::default(), &|_| {});
+    assert!(inside.unwrap_err().contains("inside the sphere"));
+}
+
+/// A lossless sphere in a closed lossless room: no energy is lost, and in the diffuse steady
+/// state the fluence per unit time is E c / V with V the air around the sphere.
+#[test]
+fn a_lossless_sphere_in_a_lossless_room_reflects_and_takes_up_air() {
+    let dir = tempfile::tempdir().unwrap();
+    let radius = 2.5f64;
+    let world = box_room_with_sphere(
+        dir.path(),
+        [10.0, 8.0, 6.0],
+        (0.0, 0.5),
+        (0.0, 0.0),
+        ([5.0, 4.0, 3.0], radius as f32),
+    );
+    let settings = AcousticSettings {
+        rays: 20_000,
+        use_image_sources: false,
+        air_absorption: false,
+        max_time_s: Some(1.0),
+        ..Default::default()
+    };
+    let r = simulate(&world, &src([1.0, 1.0, 1.0]), &rcv([8.5, 6.5, 4.5], Some(0.5)), &settings, &|_| {})
+        .unwrap();
+    assert!(r.escaped_energy_fraction < 1e-3, "leak {}", r.escaped_energy_fraction);
+    let air = 480.0 - 4.0 / 3.0 * std::f64::consts::PI * radius.powi(3);
+    assert!((r.volume_m3 - air).abs() < 1e-6 * air, "{} m^3 of air", r.volume_m3);
+    let h = &r.pairs[0].histogram;
+    let late: f64 = h[200..1000].iter().map(|b| b[3]).sum::<f64>() / 0.8;
+    let expected = r.speed_of_sound_m_s / air;
+    let ignoring_the_sphere = r.speed_of_sound_m_s / 480.0;
+    assert!(
+        (late - expected).abs() / expected < 0.03,
+        "{late} vs {expected} (without the sphere {ignoring_the_sphere})"
+    );
 }

@@ -58,6 +58,9 @@ pub struct AcousticSettings {
     /// Image sources replace the rays' early specular paths; `false` traces everything with
     /// rays (used to test the ray estimator itself).
     pub use_image_sources: bool,
+    /// Diffuse rain: every reflection sends its diffusely scattered energy straight to the
+    /// receivers in view (far less noise in diffuse rooms; `false` counts crossing rays only).
+    pub diffuse_rain: bool,
     /// A ray plays Russian roulette once every band has lost this many dB (air included):
     /// weak rays survive with a probability proportional to their energy, so the decay's
     /// expected value is exact to its end while the tail costs little (20 to 120 dB).
@@ -76,6 +79,7 @@ impl Default for AcousticSettings {
             ism_order: 2,
             use_image_sources: true,
             roulette_db: 40.0,
+            diffuse_rain: true,
         }
     }
 }
@@ -190,16 +194,32 @@ pub fn simulate_on(
     }
     let scene = &world.scene;
     let report = &world.report;
-    let volume_m3 =
+    let mesh_air_m3 =
         report.air_volume_m3.ok_or("the scene encloses no air: room acoustics needs a closed room")?;
+    // Spheres are part of the room: they take up air and add their surface.
+    let spheres_in_air: Vec<&Sphere> =
+        scene.spheres.iter().filter(|s| world.is_inside(s.center) != Some(false)).collect();
+    let volume_m3 = mesh_air_m3
+        - spheres_in_air
+            .iter()
+            .map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.radius_m).powi(3))
+            .sum::<f64>();
+    if volume_m3.is_nan() || volume_m3 <= 0.0 {
+        return Err(format!("the spheres fill the room's {mesh_air_m3:.3} m^3 of air"));
+    }
     let surfaces = surface_acoustics(world)?;
     let c = settings.air.speed_of_sound_m_s();
     let air_per_m =
         if settings.air_absorption { settings.air.energy_coefficient_per_m() } else { [0.0; BAND_COUNT] };
     let absorption: Vec<_> = surfaces.iter().map(|s| s.absorption).collect();
-    let areas = &report.area_by_surface_m2[..surfaces.len().min(report.area_by_surface_m2.len())];
-    let (sabine_s, eyring_s) =
-        reverberation_times(volume_m3, areas, &absorption[..areas.len()], &air_per_m, c);
+    let mut areas = report.area_by_surface_m2.clone();
+    areas.resize(surfaces.len(), 0.0);
+    for s in &spheres_in_air {
+        if let Some(a) = areas.get_mut(s.surface as usize) {
+            *a += 4.0 * std::f64::consts::PI * f64::from(s.radius_m).powi(2);
+        }
+    }
+    let (sabine_s, eyring_s) = reverberation_times(volume_m3, &areas, &absorption, &air_per_m, c);
     let limit_s = settings.max_time_s.unwrap_or(MAX_SIMULATED_S);
     if !(limit_s > 0.0 && limit_s <= MAX_SIMULATED_S) {
         return Err(format!("maximum time {limit_s} s: must be in (0, {MAX_SIMULATED_S}]"));
@@ -218,6 +238,18 @@ pub fn simulate_on(
         }
         if world.is_inside(v) == Some(false) {
             return Err(format!("{kind} \"{name}\" at ({}, {}, {}) is outside the room", v.x, v.y, v.z));
+        }
+        if let Some(s) = scene.spheres.iter().find(|s| s.contains(v)) {
+            return Err(format!(
+                "{kind} \"{name}\" at ({}, {}, {}) is inside the sphere of material \"{}\" at ({}, {}, {})",
+                v.x,
+                v.y,
+                v.z,
+                scene.surfaces.get(s.surface as usize).map_or("?", |x| x.name.as_str()),
+                s.center.x,
+                s.center.y,
+                s.center.z
+            ));
         }
     }
     let radius_default = default_receiver_radius_m(volume_m3, settings.rays, c, settings.bin_s);
@@ -250,6 +282,7 @@ pub fn simulate_on(
             skip_specular_up_to: settings.use_image_sources.then_some(ism_order),
             roulette_factor: 10f64.powf(-settings.roulette_db / 10.0) as f32,
             scene_bounds: (lo - margin, hi + margin),
+            diffuse_rain: settings.diffuse_rain.then_some(&world.accel),
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),
@@ -282,7 +315,10 @@ pub fn simulate_on(
                 .map(|r| {
                     use rayon::prelude::*;
                     let rcv = Vec3::from(r.position);
-                    images.par_iter().filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv)).collect()
+                    images
+                        .par_iter()
+                        .filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv))
+                        .collect()
                 })
                 .collect();
         }
@@ -387,7 +423,7 @@ pub fn simulate_on(
     Ok(Some(AcousticResult {
         bands_hz: OCTAVE_BANDS_HZ,
         volume_m3,
-        surface_m2: report.total_area_m2,
+        surface_m2: areas.iter().sum(),
         speed_of_sound_m_s: c,
         sabine_s,
         eyring_s,

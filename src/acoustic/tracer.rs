@@ -4,8 +4,9 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::core::accel::Accel;
 use crate::core::fixed::add_fixed;
-use crate::core::hit::Hit;
+use crate::core::hit::{Hit, PrimitiveKind};
 use crate::core::launcher::{Bounce, Propagation};
 use crate::core::ray::Ray;
 use crate::core::rng::{Rng64, uniform};
@@ -27,6 +28,9 @@ pub struct SurfaceAcoustics {
 pub struct SoundRay {
     pub energy: BandValues,
     pub specular_order: Option<u32>,
+    /// The ray's last reflection was diffuse: with diffuse rain on, that part of the sound
+    /// reached the receivers by the rain, so this segment's crossings are not counted again.
+    pub after_diffuse: bool,
 }
 
 /// Energy recorded by a receiver: `energy[b]` arrived in histogram bin `bin`, before air
@@ -70,6 +74,10 @@ pub struct SoundPropagation<'a> {
     pub roulette_factor: f32,
     /// The scene's bounding box, slightly enlarged: a ray that ends outside it escaped.
     pub scene_bounds: (Vec3, Vec3),
+    /// Diffuse rain (next-event estimation): at every reflection the diffusely scattered
+    /// energy is sent straight to every receiver in view, tested for occlusion in this
+    /// scene. `None`: receivers count only the rays that cross them.
+    pub diffuse_rain: Option<&'a Accel>,
 }
 
 /// Histogram time bins of width `bin_s`: the one formula that places an arrival after a path
@@ -111,7 +119,7 @@ impl Propagation for SoundPropagation<'_> {
     }
 
     fn emit(&self, _: u64, _: Vec3) -> SoundRay {
-        SoundRay { energy: [self.ray_energy_j; BAND_COUNT], specular_order: Some(0) }
+        SoundRay { energy: [self.ray_energy_j; BAND_COUNT], specular_order: Some(0), after_diffuse: false }
     }
 
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds
@@ -147,6 +155,9 @@ impl Propagation for SoundPropagation<'_> {
         {
             return;
         }
+        if ray_state.after_diffuse && self.diffuse_rain.is_some() {
+            return;
+        }
         let seg = Ray { t_max: length_m, ..*ray };
         for (i, s) in self.receivers.iter().enumerate() {
             let Some((t0, t1)) = s.roots(&seg) else { continue };
@@ -179,7 +190,7 @@ impl Propagation for SoundPropagation<'_> {
     #[inline]
     fn interact(
         &self,
-        _: &mut TraceRecord,
+        acc: &mut TraceRecord,
         ray_state: &mut SoundRay,
         hit: &Hit,
         incoming: Vec3,
@@ -195,6 +206,11 @@ impl Propagation for SoundPropagation<'_> {
             scattered[b] = e[b] * s[b];
         }
         let (total, weighted) = (sum_bands(e), sum_bands(&scattered));
+        if weighted > 0.0
+            && let Some(accel) = self.diffuse_rain
+        {
+            self.rain(accel, acc, hit, &scattered, &surface.absorption, path_m);
+        }
         let s_mean = if total > 0.0 { (weighted / total).clamp(0.0, 1.0) } else { 0.0 };
         let diffuse = s_mean > 0.0 && uniform(rng) < s_mean;
         if diffuse {
@@ -216,22 +232,76 @@ impl Propagation for SoundPropagation<'_> {
         let threshold = self.ray_energy_j * self.roulette_factor;
         let air_min = self.air_per_m.iter().fold(f32::INFINITY, |m, &x| m.min(x));
         let level = peak * (-air_min * path_m).exp();
-        if !(level >= threshold) {
+        // (A NaN level fails both tests and stops the ray.)
+        if level.is_nan() || level < threshold {
             let survival = level / threshold;
-            if !(uniform(rng) < survival) {
+            if survival.is_nan() || uniform(rng) >= survival {
                 return Bounce::Stop;
             }
             let boost = 1.0 / survival;
             e.iter_mut().for_each(|x| *x *= boost);
         }
         let n = hit.facing_normal();
+        ray_state.after_diffuse = diffuse;
         if diffuse {
             ray_state.specular_order = None;
             let local = cosine_hemisphere(Vec2::new(uniform(rng), uniform(rng)));
             Bounce::Continue(to_world(local, n).normalize())
+        } else if hit.kind == PrimitiveKind::Sphere {
+            // A curved mirror has no image source: the rays keep what they find.
+            ray_state.specular_order = None;
+            Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
         } else {
             ray_state.specular_order = ray_state.specular_order.map(|o| o + 1);
             Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
+        }
+    }
+}
+
+impl SoundPropagation<'_> {
+    /// Diffuse rain (Schroeder, Physically based real-time auralization of interactive
+    /// virtual environments, 2011, sec. 4.3; Heinz 1993): the energy `scattered[b] (1 - a_b)`
+    /// that leaves the hit point diffusely radiates by Lambert's law, so a receiver sphere of
+    /// radius r whose centre is at distance d in direction cos(theta) from the normal receives
+    /// E cos(theta) Omega / pi, Omega = 2 pi (1 - cos(gamma)), sin(gamma) = r / d, spread over
+    /// its cross-section pi r^2: the fluence E cos(theta) 2 (1 - cos(gamma)) / (pi r^2),
+    /// E cos(theta) / (pi d^2) for a small receiver, exactly what the crossing rays of the
+    /// diffuse branch would add in expectation. It arrives after the path plus d.
+    fn rain(
+        &self,
+        accel: &Accel,
+        acc: &mut TraceRecord,
+        hit: &Hit,
+        scattered: &BandValues,
+        absorption: &BandValues,
+        path_m: f32,
+    ) {
+        let n = hit.facing_normal();
+        for (i, s) in self.receivers.iter().enumerate() {
+            let to = s.center - hit.point;
+            let d = to.length();
+            if d <= s.radius_m {
+                continue;
+            }
+            let cos_theta = n.dot(to) / d;
+            if cos_theta <= 0.0 {
+                continue;
+            }
+            let sin_gamma = s.radius_m / d;
+            let one_minus_cos_gamma = sin_gamma * sin_gamma / (1.0 + (1.0 - sin_gamma * sin_gamma).sqrt());
+            let fluence_per_j =
+                cos_theta * 2.0 * one_minus_cos_gamma / (std::f32::consts::PI * s.radius_m * s.radius_m);
+            let mut shadow = Ray::spawn_to(hit.point, hit.normal, s.center);
+            shadow.t_max = (shadow.t_max - s.radius_m).max(0.0);
+            if accel.occluded(&shadow) {
+                continue;
+            }
+            let bin = self.bins.bin_of_path(f64::from(path_m + d)).min(u32::MAX as usize) as u32;
+            let mut energy = [0.0; BAND_COUNT];
+            for b in 0..BAND_COUNT {
+                energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;
+            }
+            acc.detections.push(Detection { receiver: i as u32, bin, energy });
         }
     }
 }
