@@ -294,13 +294,6 @@ pub fn simulate_on(
             max_path_m: (limit_s * c) as f32,
         };
         let record: TraceRecord = launch_share(&world.accel, &prop, &launch_spec, cluster.share(), progress);
-        // The histogram reaches the last detection of any process (bins are agreed by a sum
-        // of one slot a process).
-        let mut last = vec![0u64; cluster.size() as usize];
-        last[cluster.share().rank as usize] =
-            record.detections.iter().map(|d| u64::from(d.bin) + 1).max().unwrap_or(0);
-        cluster.sum_u64(&mut last);
-        let traced_bins = (last.iter().copied().max().unwrap_or(0) as usize).min(bin_limit);
         // Image-source paths (the direct sound is order 0), found on rank 0 only.
         let src = Vec3::from(source.position);
         let mut images = Vec::new();
@@ -329,7 +322,13 @@ pub fn simulate_on(
             .filter(|&b| b <= bin_limit)
             .max()
             .unwrap_or(0);
-        let bins = traced_bins.max(image_bins).max(1);
+        // The histogram reaches the last arrival of any process, ray or image source (bins
+        // are agreed by a sum of one slot a process).
+        let mut last = vec![0u64; cluster.size() as usize];
+        last[cluster.share().rank as usize] =
+            record.detections.iter().map(|d| u64::from(d.bin) + 1).max().unwrap_or(0).max(image_bins as u64);
+        cluster.sum_u64(&mut last);
+        let bins = (last.iter().copied().max().unwrap_or(0) as usize).min(bin_limit).max(1);
         // Fixed-point sums (of the energy per ray) are exact in any order, so every split
         // of the rays over processes and threads gives the same histograms to the last bit.
         let unit = f64::from(prop.ray_energy_j);

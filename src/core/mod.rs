@@ -5,6 +5,7 @@ pub mod accel;
 pub mod fixed;
 pub mod flat;
 pub mod hit;
+#[allow(unsafe_code)]
 pub mod launcher;
 pub mod leaf;
 pub mod mesh;
