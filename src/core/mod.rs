@@ -1,4 +1,5 @@
-//! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams.
+//! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams,
+//! and the arrival-time bins.
 //! It knows nothing of light, sound or radio.
 
 pub mod accel;
@@ -17,6 +18,7 @@ pub mod sampling;
 pub mod share;
 pub mod spectrum;
 pub mod sphere;
+pub mod time_bins;
 #[allow(unsafe_code)]
 pub mod traverse;
 pub mod triangle;
@@ -27,4 +29,5 @@ pub use mesh::TriangleMesh;
 pub use ray::Ray;
 pub use share::Share;
 pub use sphere::Sphere;
+pub use time_bins::TimeBins;
 pub use triangle::TriangleRt;
