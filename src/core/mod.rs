@@ -1,5 +1,5 @@
 //! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams,
-//! and the arrival-time bins.
+//! the specular-path engine and the arrival-time bins.
 //! It knows nothing of light, sound or radio.
 
 pub mod accel;
@@ -17,6 +17,7 @@ pub mod rng;
 pub mod sampling;
 pub mod share;
 pub mod spectrum;
+pub mod specular;
 pub mod sphere;
 pub mod time_bins;
 #[allow(unsafe_code)]
