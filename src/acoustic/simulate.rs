@@ -5,13 +5,14 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::air::Air;
-use super::image_source::{Planes, image_sources, trace_path};
+use super::image_source::specular_arrivals;
 use super::metrics::{BandMetrics, band_metrics};
 use super::room::reverberation_times;
 use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
-use crate::core::Sphere;
 use crate::core::fixed::{add_fixed, from_fixed};
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
+use crate::core::specular::{Planes, affordable_order};
+use crate::core::{Sphere, TimeBins};
 use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
@@ -222,8 +223,13 @@ pub fn simulate_on(
 
     let (lo, hi) = scene.mesh.bounds().ok_or("the scene is empty")?;
     let margin = Vec3::splat(1e-3 * (1.0 + (hi - lo).max_element()));
-    let ism_order = if settings.use_image_sources { settings.ism_order } else { 0 };
-    let planes = Planes::of(&scene.mesh);
+    let planes = if settings.use_image_sources && settings.ism_order > 0 {
+        Planes::of(&scene.mesh)
+    } else {
+        Planes::default()
+    };
+    let ism_order =
+        if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
     let mut pairs = Vec::new();
     let mut escaped = 0.0;
     for (si, source) in sources.iter().enumerate() {
@@ -280,30 +286,18 @@ pub fn simulate_on(
         drop(fixed);
         // Image sources (the direct sound is order 0).
         let src = Vec3::from(source.position);
-        let mut images =
-            if settings.use_image_sources { image_sources(src, &planes, ism_order) } else { Vec::new() };
-        if settings.use_image_sources {
-            images.insert(0, super::image_source::ImageSource { planes: Vec::new(), images: Vec::new() });
-        }
+        let time_bins = TimeBins { speed_m_s: c, bin_s: settings.bin_s, bins };
         for (ri, r) in receivers.iter().enumerate() {
             let rcv = Vec3::from(r.position);
-            let paths: Vec<_> = {
-                use rayon::prelude::*;
-                images.par_iter().filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv)).collect()
+            let paths = if settings.use_image_sources {
+                specular_arrivals(&world.accel, &planes, &surfaces, &air_per_m, src, rcv, ism_order)
+            } else {
+                Vec::new()
             };
             for p in &paths {
-                let bin = (f64::from(p.length_m) / c / settings.bin_s) as usize;
-                if bin >= bins {
-                    continue;
-                }
-                let spreading = 1.0 / (4.0 * std::f64::consts::PI * f64::from(p.length_m).powi(2));
-                for b in 0..BAND_COUNT {
-                    let mut e = spreading * (-f64::from(air_per_m[b]) * f64::from(p.length_m)).exp();
-                    for &s in &p.surfaces {
-                        let sa = &surfaces[s as usize];
-                        e *= f64::from((1.0 - sa.absorption[b]) * (1.0 - sa.scattering[b]));
-                    }
-                    histograms[ri][bin][b] += e;
+                let Some(bin) = time_bins.bin_of_path(p.length_m) else { continue };
+                for (h, e) in histograms[ri][bin].iter_mut().zip(p.energy) {
+                    *h += e;
                 }
             }
             let hist: Vec<BandEnergies> =
