@@ -136,7 +136,8 @@ fn shoebox_t30_at_absorption_03_follows_the_path_length_corrected_eyring() {
 #[test]
 fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
     use glam::Vec3;
-    use propsim::acoustic::tracer::{SoundPropagation, SurfaceAcoustics, TimeBins};
+    use propsim::acoustic::tracer::{SoundPropagation, SurfaceAcoustics};
+    use propsim::core::TimeBins;
     use propsim::core::launcher::{Launch, LaunchPattern, launch};
     use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
 
@@ -156,7 +157,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         receivers: &receivers,
         ray_energy_j: 1.0,
         air_per_m: [0.0; 8],
-        bins: TimeBins { speed_of_sound_m_s: f64::from(c), bin_s: 1e-3 },
+        bins: TimeBins { speed_m_s: f64::from(c), bin_s: 1e-3, bins: 100 },
         skip_specular_up_to: None,
         roulette_factor: 1e-9,
         diffuse_rain: None,

@@ -4,11 +4,12 @@
 
 use glam::{DVec3, Vec3};
 use propsim::core::launcher::{Launch, LaunchPattern, launch};
+use propsim::core::specular::Planes;
 use propsim::core::{Accel, BuildQuality, TriangleMesh};
 use propsim::rf::coverage::{Coverage, CoverageAccumulator, GridSpec};
 use propsim::rf::fresnel::{C0, Complex, complex_permittivity, reflection};
 use propsim::rf::propagation::{RadioPropagation, SurfacePhysics};
-use propsim::rf::receivers::{coherent_paths, distinct_planes};
+use propsim::rf::receivers::coherent_paths;
 use propsim::rf::{Antenna, Polarization, free_space_path_loss_db};
 use propsim::scene::itu::itu_lookup;
 
@@ -210,7 +211,7 @@ fn ground_reflection_grid_matches_two_ray_power_sum() {
 fn coherent_receivers_match_the_exact_two_ray_field() {
     let mesh = ground(5000.0);
     let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-    let planes = distinct_planes(&mesh);
+    let planes = Planes::of(&mesh);
     assert_eq!(planes.len(), 1);
     let physics =
         SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() };

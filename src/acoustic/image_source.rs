@@ -1,212 +1,111 @@
-//! The image-source method for the early specular reflections (Allen & Berkley 1979;
-//! Borish 1984 for arbitrary polyhedra), with every path checked by tracing it back from the
-//! receiver through the BVH (visibility and reflection points inside the actual faces).
-
-use std::collections::HashMap;
+//! The image-source method for the early specular reflections: the acoustic payload of the
+//! core's specular-path engine ([`crate::core::specular`]: Allen & Berkley 1979; Borish 1984
+//! for arbitrary polyhedra), which finds and validates the paths, the same ones the radio
+//! receivers use.
 
 use glam::Vec3;
 
-use crate::core::{Accel, Ray, TriangleMesh};
+use super::tracer::SurfaceAcoustics;
+use crate::core::Accel;
+use crate::core::specular::{Planes, specular_paths};
+use crate::scene::materials::{BAND_COUNT, BandValues};
 
-/// The distinct planes of a mesh; coplanar triangles share one plane.
-#[derive(Clone, Debug, Default)]
-pub struct Planes {
-    /// Unit normal and offset (`n . x = d`) of each plane.
-    pub normal: Vec<Vec3>,
-    pub offset: Vec<f32>,
-    pub plane_of_triangle: Vec<u32>,
-}
-
-impl Planes {
-    /// Groups triangles by plane (normal within ~1e-4 rad and offset within 0.1 mm).
-    pub fn of(mesh: &TriangleMesh) -> Self {
-        let mut planes = Planes::default();
-        let mut index: HashMap<[i64; 4], u32> = HashMap::new();
-        for t in 0..mesh.triangle_count() {
-            let [a, b, c] = mesh.corners(t);
-            let mut n = (b - a).cross(c - a).normalize_or_zero();
-            // Canonical orientation: the largest component positive.
-            let k = if n.x.abs() >= n.y.abs() && n.x.abs() >= n.z.abs() {
-                n.x
-            } else if n.y.abs() >= n.z.abs() {
-                n.y
-            } else {
-                n.z
-            };
-            if k < 0.0 {
-                n = -n;
-            }
-            let d = n.dot(a);
-            let key = [
-                (n.x * 1e4).round() as i64,
-                (n.y * 1e4).round() as i64,
-                (n.z * 1e4).round() as i64,
-                (d * 1e4).round() as i64,
-            ];
-            let id = *index.entry(key).or_insert_with(|| {
-                planes.normal.push(n);
-                planes.offset.push(d);
-                (planes.normal.len() - 1) as u32
-            });
-            planes.plane_of_triangle.push(id);
-        }
-        planes
-    }
-
-    pub fn len(&self) -> usize {
-        self.normal.len()
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.normal.is_empty()
-    }
-
-    /// Mirror image of `p` in plane `i`.
-    pub fn mirror(&self, i: u32, p: Vec3) -> Vec3 {
-        let n = self.normal[i as usize];
-        p - 2.0 * (n.dot(p) - self.offset[i as usize]) * n
-    }
-}
-
-/// An image source: the chain of planes of its reflections, first reflection first, and the
-/// images of every order along the chain (`images[k]` is the image after `k + 1` reflections).
+/// One specular arrival at a receiver.
 #[derive(Clone, Debug, PartialEq)]
-pub struct ImageSource {
-    pub planes: Vec<u32>,
-    pub images: Vec<Vec3>,
+pub struct Arrival {
+    /// Path length, metres.
+    pub length_m: f64,
+    /// Reflections on the way.
+    pub order: usize,
+    /// Energy fluence per band per joule of source energy, 1/m^2:
+    /// `prod (1 - a)(1 - s) e^{-m L} / (4 pi L^2)`, the point source's spherical spreading
+    /// (Allen & Berkley 1979) with each reflection keeping its specular, unabsorbed part and
+    /// the air's energy attenuation `m` (ISO 9613-1) over the whole length.
+    pub energy: [f64; BAND_COUNT],
 }
 
-/// All image sources of `source` up to `order` (no plane twice in a row).
-pub fn image_sources(source: Vec3, planes: &Planes, order: u32) -> Vec<ImageSource> {
-    let mut all = Vec::new();
-    let mut frontier = vec![ImageSource { planes: Vec::new(), images: Vec::new() }];
-    for _ in 0..order {
-        let mut next = Vec::new();
-        for parent in &frontier {
-            let from = parent.images.last().copied().unwrap_or(source);
-            for p in 0..planes.len() as u32 {
-                if parent.planes.last() == Some(&p) {
-                    continue;
-                }
-                let n = planes.normal[p as usize];
-                if (n.dot(from) - planes.offset[p as usize]).abs() < 1e-6 {
-                    continue;
-                }
-                let mut child = parent.clone();
-                child.planes.push(p);
-                child.images.push(planes.mirror(p, from));
-                next.push(child);
-            }
-        }
-        all.extend(next.iter().cloned());
-        frontier = next;
-    }
-    all
-}
-
-/// A valid specular path from the source to the receiver.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SpecularPath {
-    pub length_m: f32,
-    /// Surface id of each reflection, first reflection first.
-    pub surfaces: Vec<u32>,
-}
-
-/// Traces image source `img` back from `receiver`: each leg must reach the right plane inside
-/// one of its triangles, and the last leg must see the source. `None` if the path is invalid.
-pub fn trace_path(
+/// The specular arrivals of up to `order` reflections from `source` to `receiver`, in the
+/// engine's order (the direct sound first if it is free). `surfaces` gives each surface id's
+/// absorption and scattering (a surface missing from it absorbs everything), `air_per_m` the
+/// air's attenuation per band.
+pub fn specular_arrivals(
     accel: &Accel,
     planes: &Planes,
-    img: &ImageSource,
+    surfaces: &[SurfaceAcoustics],
+    air_per_m: &BandValues,
     source: Vec3,
     receiver: Vec3,
-) -> Option<SpecularPath> {
-    let order = img.planes.len();
-    let length_m = img.images.last().map_or((source - receiver).length(), |i| (*i - receiver).length());
-    let mut surfaces = vec![0; order];
-    let mut from = receiver;
-    let mut from_normal: Option<Vec3> = None;
-    for k in (0..order).rev() {
-        let target = img.images[k];
-        let to = target - from;
-        let dist = to.length();
-        let dir = to / dist;
-        let mut ray = match from_normal {
-            None => Ray::new(from, dir),
-            Some(n) => Ray::spawn(from, n, dir),
-        };
-        ray.t_max = dist;
-        let hit = accel.mesh.closest_hit(&ray)?;
-        if planes.plane_of_triangle[hit.primitive as usize] != img.planes[k] {
-            return None;
-        }
-        surfaces[k] = hit.surface;
-        from = hit.point;
-        from_normal = Some(hit.normal);
-    }
-    let last = match from_normal {
-        None => {
-            let to = source - from;
-            Ray::segment(from, to.normalize_or_zero(), to.length())
-        }
-        Some(n) => Ray::spawn_to(from, n, source),
-    };
-    if accel.mesh.occluded(&last) {
-        return None;
-    }
-    Some(SpecularPath { length_m, surfaces })
+    order: u32,
+) -> Vec<Arrival> {
+    specular_paths(accel, planes, source.as_dvec3(), receiver.as_dvec3(), order)
+        .into_iter()
+        .map(|p| {
+            let spreading = 1.0 / (4.0 * std::f64::consts::PI * p.length_m.powi(2));
+            let energy = std::array::from_fn(|b| {
+                let mut e = spreading * (-f64::from(air_per_m[b]) * p.length_m).exp();
+                for s in p.surfaces() {
+                    e *= surfaces
+                        .get(s as usize)
+                        .map_or(0.0, |sa| f64::from((1.0 - sa.absorption[b]) * (1.0 - sa.scattering[b])));
+                }
+                e
+            });
+            Arrival { length_m: p.length_m, order: p.order(), energy }
+        })
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
+    use glam::DVec3;
+
     use super::*;
-    use crate::core::BuildQuality;
+    use crate::core::{BuildQuality, TriangleMesh};
 
     #[test]
-    fn shoebox_images_match_the_lattice() {
+    fn shoebox_arrivals_carry_the_closed_form_energy() {
+        // Floor (absorption 0.3, scattering 0.1) and walls (0.1, 0.5) of a 10 x 8 x 3 m box,
+        // air 2^-7 /m in every band: the direct sound and the floor image (2, 3, -1.5) carry
+        // e^{-mL} / (4 pi L^2) and 0.7 x 0.9 e^{-mL} / (4 pi L^2).
         let mut mesh = TriangleMesh::default();
-        let s = mesh.surface_id("wall");
-        mesh.push_box(Vec3::ZERO, Vec3::new(10.0, 8.0, 3.0), 2, s);
-        let planes = Planes::of(&mesh);
-        assert_eq!(planes.len(), 6);
-        let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-        let (src, rcv) = (Vec3::new(2.0, 3.0, 1.5), Vec3::new(7.0, 5.0, 1.2));
-        let images = image_sources(src, &planes, 2);
-        assert_eq!(images.len(), 6 + 6 * 5);
-        let valid: Vec<SpecularPath> =
-            images.iter().filter_map(|i| trace_path(&accel, &planes, i, src, rcv)).collect();
-        // Allen & Berkley's lattice: 6 first-order images; of order 2, the 6 ordered pairs of
-        // parallel walls are all valid, while each of the 12 corner images (two perpendicular
-        // walls) is reached by one of its two orderings only: 6 + 6 + 12 = 24.
-        assert_eq!(valid.len(), 24);
-        // The floor image: (2, 3, -1.5) -> length |(5, 2, 2.7)|.
-        let floor = Vec3::new(5.0, 2.0, 2.7).length();
-        assert!(valid.iter().any(|p| p.surfaces.len() == 1 && (p.length_m - floor).abs() < 1e-4));
-    }
-
-    #[test]
-    fn an_occluding_wall_invalidates_paths() {
-        // L-shaped corridor: a partition hides the receiver; the direct path and the
-        // reflections off the far side are blocked.
-        let mut mesh = TriangleMesh::default();
-        let s = mesh.surface_id("wall");
-        mesh.push_box(Vec3::ZERO, Vec3::new(10.0, 10.0, 3.0), 1, s);
-        let wall = mesh.surface_id("partition");
-        let start = mesh.triangle_count();
-        mesh.push_box(Vec3::new(4.9, 0.0, 0.0), Vec3::new(5.1, 8.0, 3.0), 1, wall);
-        for t in &mut mesh.triangles[start..] {
-            t.swap(1, 2);
+        let wall = mesh.surface_id("wall");
+        mesh.push_box(Vec3::ZERO, Vec3::new(10.0, 8.0, 3.0), 1, wall);
+        let floor = mesh.surface_id("floor");
+        let floor_triangles: Vec<usize> =
+            (0..mesh.triangle_count()).filter(|&t| mesh.corners(t).iter().all(|c| c.z == 0.0)).collect();
+        assert_eq!(floor_triangles.len(), 2);
+        for t in floor_triangles {
+            mesh.surface_of_triangle[t] = floor;
         }
-        let planes = Planes::of(&mesh);
+        let surfaces = [
+            SurfaceAcoustics { absorption: [0.1; BAND_COUNT], scattering: [0.5; BAND_COUNT] },
+            SurfaceAcoustics { absorption: [0.3; BAND_COUNT], scattering: [0.1; BAND_COUNT] },
+        ];
         let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-        let (src, rcv) = (Vec3::new(2.0, 2.0, 1.5), Vec3::new(8.0, 2.0, 1.5));
-        let direct = ImageSource { planes: vec![], images: vec![] };
-        assert!(trace_path(&accel, &planes, &direct, src, rcv).is_none());
-        let images = image_sources(src, &planes, 2);
-        let valid: Vec<SpecularPath> =
-            images.iter().filter_map(|i| trace_path(&accel, &planes, i, src, rcv)).collect();
-        // Only paths over the partition's end (via the y = 10 wall) survive.
-        assert!(!valid.is_empty());
-        assert!(valid.iter().all(|p| p.length_m > 6.0));
+        let planes = Planes::of(&mesh);
+        let (src, rcv) = (Vec3::new(2.0, 3.0, 1.5), Vec3::new(7.0, 5.0, 1.2));
+        let arrivals = specular_arrivals(&accel, &planes, &surfaces, &[0.0078125; BAND_COUNT], src, rcv, 1);
+        assert_eq!(arrivals.len(), 7);
+        let expect = |length: f64, kept: f64| {
+            kept * (-0.0078125 * length).exp() / (4.0 * std::f64::consts::PI * length * length)
+        };
+        let direct = rcv.as_dvec3().distance(src.as_dvec3());
+        assert_eq!(arrivals[0].order, 0);
+        assert!((arrivals[0].length_m - direct).abs() < 1e-9);
+        for e in arrivals[0].energy {
+            assert!((e / expect(direct, 1.0) - 1.0).abs() < 1e-12);
+        }
+        let floor_length = rcv.as_dvec3().distance(DVec3::new(2.0, 3.0, -1.5));
+        let image = arrivals.iter().find(|a| (a.length_m - floor_length).abs() < 1e-9).unwrap();
+        assert_eq!(image.order, 1);
+        for e in image.energy {
+            assert!((e / expect(floor_length, 0.7 * 0.9) - 1.0).abs() < 1e-6);
+        }
+        // The x = 10 wall: image (18, 3, 1.5).
+        let wall_length = rcv.as_dvec3().distance(DVec3::new(18.0, 3.0, 1.5));
+        let image = arrivals.iter().find(|a| (a.length_m - wall_length).abs() < 1e-9).unwrap();
+        for e in image.energy {
+            assert!((e / expect(wall_length, 0.9 * 0.5) - 1.0).abs() < 1e-6);
+        }
     }
 }

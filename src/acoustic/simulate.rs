@@ -5,13 +5,14 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::air::Air;
-use super::image_source::{Planes, image_sources, trace_path};
+use super::image_source::specular_arrivals;
 use super::metrics::{BandMetrics, band_metrics};
 use super::room::reverberation_times;
-use super::tracer::{SoundPropagation, SurfaceAcoustics, TimeBins, TraceRecord};
-use crate::core::Sphere;
+use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
 use crate::core::fixed::{add_fixed, from_fixed};
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
+use crate::core::specular::{Planes, affordable_order};
+use crate::core::{Sphere, TimeBins};
 use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
@@ -224,8 +225,8 @@ pub fn simulate_on(
     if !(limit_s > 0.0 && limit_s <= MAX_SIMULATED_S) {
         return Err(format!("maximum time {limit_s} s: must be in (0, {MAX_SIMULATED_S}]"));
     }
-    let time_bins = TimeBins { speed_of_sound_m_s: c, bin_s: settings.bin_s };
     let bin_limit = (limit_s / settings.bin_s).ceil() as usize;
+    let time_bins = TimeBins { speed_m_s: c, bin_s: settings.bin_s, bins: bin_limit };
 
     for (kind, name, p) in sources
         .iter()
@@ -264,8 +265,13 @@ pub fn simulate_on(
 
     let (lo, hi) = scene.mesh.bounds().ok_or("the scene is empty")?;
     let margin = Vec3::splat(1e-3 * (1.0 + (hi - lo).max_element()));
-    let ism_order = if settings.use_image_sources { settings.ism_order } else { 0 };
-    let planes = Planes::of(&scene.mesh);
+    let planes = if settings.use_image_sources && settings.ism_order > 0 {
+        Planes::of(&scene.mesh)
+    } else {
+        Planes::default()
+    };
+    let ism_order =
+        if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
     let mut pairs = Vec::new();
     let mut escaped = 0.0;
     let mut segments = 0u64;
@@ -296,30 +302,22 @@ pub fn simulate_on(
         let record: TraceRecord = launch_share(&world.accel, &prop, &launch_spec, cluster.share(), progress);
         // Image-source paths (the direct sound is order 0), found on rank 0 only.
         let src = Vec3::from(source.position);
-        let mut images = Vec::new();
-        let mut paths_of: Vec<Vec<_>> = Vec::new();
-        if cluster.is_root() {
-            if settings.use_image_sources {
-                images = image_sources(src, &planes, ism_order);
-                images.insert(0, super::image_source::ImageSource { planes: Vec::new(), images: Vec::new() });
-            }
-            paths_of = receivers
+        let paths_of: Vec<Vec<_>> = if cluster.is_root() && settings.use_image_sources {
+            receivers
                 .iter()
                 .map(|r| {
-                    use rayon::prelude::*;
                     let rcv = Vec3::from(r.position);
-                    images
-                        .par_iter()
-                        .filter_map(|img| trace_path(&world.accel, &planes, img, src, rcv))
-                        .collect()
+                    specular_arrivals(&world.accel, &planes, &surfaces, &air_per_m, src, rcv, ism_order)
                 })
-                .collect();
-        }
+                .collect()
+        } else {
+            vec![Vec::new(); receivers.len()]
+        };
         let image_bins = paths_of
             .iter()
             .flatten()
-            .map(|p: &super::image_source::SpecularPath| time_bins.bin_of_path(f64::from(p.length_m)) + 1)
-            .filter(|&b| b <= bin_limit)
+            .filter_map(|p| time_bins.bin_of_path(p.length_m))
+            .map(|b| b + 1)
             .max()
             .unwrap_or(0);
         // The histogram reaches the last arrival of any process, ray or image source (bins
@@ -363,7 +361,7 @@ pub fn simulate_on(
         // and exact on average over a bin to second order).
         let air_of_bin: Vec<BandEnergies> = (0..bins)
             .map(|k| {
-                let l = time_bins.mid_path_m(k);
+                let l = (k as f64 + 0.5) * settings.bin_s * c;
                 std::array::from_fn(|b| (-f64::from(air_per_m[b]) * l).exp())
             })
             .collect();
@@ -377,22 +375,14 @@ pub fn simulate_on(
             })
             .collect();
         drop(fixed);
+        let bins_here = TimeBins { bins, ..time_bins };
         for (ri, r) in receivers.iter().enumerate() {
             let rcv = Vec3::from(r.position);
             let paths = &paths_of[ri];
             for p in paths {
-                let bin = time_bins.bin_of_path(f64::from(p.length_m));
-                if bin >= bins {
-                    continue;
-                }
-                let spreading = 1.0 / (4.0 * std::f64::consts::PI * f64::from(p.length_m).powi(2));
-                for b in 0..BAND_COUNT {
-                    let mut e = spreading * (-f64::from(air_per_m[b]) * f64::from(p.length_m)).exp();
-                    for &s in &p.surfaces {
-                        let sa = &surfaces[s as usize];
-                        e *= f64::from((1.0 - sa.absorption[b]) * (1.0 - sa.scattering[b]));
-                    }
-                    histograms[ri][bin][b] += e;
+                let Some(bin) = bins_here.bin_of_path(p.length_m) else { continue };
+                for (h, e) in histograms[ri][bin].iter_mut().zip(p.energy) {
+                    *h += e;
                 }
             }
             let hist: Vec<BandEnergies> =

@@ -4,6 +4,7 @@
 
 use glam::{Vec2, Vec3};
 
+use crate::core::TimeBins;
 use crate::core::accel::Accel;
 use crate::core::fixed::add_fixed;
 use crate::core::hit::{Hit, PrimitiveKind};
@@ -64,7 +65,8 @@ pub struct SoundPropagation<'a> {
     /// Air energy attenuation per band, 1/m: used for the escaped energy and, through its
     /// smallest value, to bound a ray's remaining energy in the roulette test.
     pub air_per_m: BandValues,
-    /// Histogram time bins: a detection at path length l falls in bin floor(l / c / bin_s).
+    /// Histogram time bins: a detection after l metres falls in bin floor(l / c / bin_s);
+    /// arrivals past the last bin are dropped.
     pub bins: TimeBins,
     /// Paths that stay specular up to this order are left to the image-source method (0 with
     /// image sources on: the direct sound; `None`: rays record everything).
@@ -78,27 +80,6 @@ pub struct SoundPropagation<'a> {
     /// energy is sent straight to every receiver in view, tested for occlusion in this
     /// scene. `None`: receivers count only the rays that cross them.
     pub diffuse_rain: Option<&'a Accel>,
-}
-
-/// Histogram time bins of width `bin_s`: the one formula that places an arrival after a path
-/// of `l` metres, floor(l / c / bin_s), computed in f64 for rays and image sources alike.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TimeBins {
-    pub speed_of_sound_m_s: f64,
-    pub bin_s: f64,
-}
-
-impl TimeBins {
-    /// The bin of an arrival after `path_m` metres (saturating for absurd paths).
-    #[inline]
-    pub fn bin_of_path(&self, path_m: f64) -> usize {
-        (path_m / self.speed_of_sound_m_s / self.bin_s) as usize
-    }
-
-    /// The path length of the middle of bin `k`, metres.
-    pub fn mid_path_m(&self, k: usize) -> f64 {
-        (k as f64 + 0.5) * self.bin_s * self.speed_of_sound_m_s
-    }
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -167,7 +148,8 @@ impl Propagation for SoundPropagation<'_> {
             }
             let chord = b - a;
             let path_m = path_before_m + 0.5 * (a + b);
-            let bin = self.bins.bin_of_path(f64::from(path_m)).min(u32::MAX as usize) as u32;
+            let Some(bin) = self.bins.bin_of_path(f64::from(path_m)) else { continue };
+            let bin = bin as u32;
             let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
             let energy = ray_state.energy.map(|e| e * per_volume);
             acc.detections.push(Detection { receiver: i as u32, bin, energy });
@@ -296,7 +278,8 @@ impl SoundPropagation<'_> {
             if accel.occluded(&shadow) {
                 continue;
             }
-            let bin = self.bins.bin_of_path(f64::from(path_m + d)).min(u32::MAX as usize) as u32;
+            let Some(bin) = self.bins.bin_of_path(f64::from(path_m + d)) else { continue };
+            let bin = bin as u32;
             let mut energy = [0.0; BAND_COUNT];
             for b in 0..BAND_COUNT {
                 energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;

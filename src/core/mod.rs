@@ -1,4 +1,5 @@
-//! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams.
+//! The tracing core: rays, hits, meshes, spheres, the BVH, sampling and random streams,
+//! the specular-path engine and the arrival-time bins.
 //! It knows nothing of light, sound or radio.
 
 pub mod accel;
@@ -17,7 +18,9 @@ pub mod rng;
 pub mod sampling;
 pub mod share;
 pub mod spectrum;
+pub mod specular;
 pub mod sphere;
+pub mod time_bins;
 #[allow(unsafe_code)]
 pub mod traverse;
 pub mod triangle;
@@ -28,4 +31,5 @@ pub use mesh::TriangleMesh;
 pub use ray::Ray;
 pub use share::Share;
 pub use sphere::Sphere;
+pub use time_bins::TimeBins;
 pub use triangle::TriangleRt;

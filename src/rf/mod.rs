@@ -29,13 +29,14 @@ pub use coverage::{Coverage, CoverageAccumulator, GridSpec};
 use glam::DVec3;
 
 use crate::core::launcher::{self, Launch, LaunchPattern};
+use crate::core::specular::{Planes, affordable_order};
 use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::itu::itu_lookup;
 use crate::scene::materials::RadioProps;
 use fresnel::{C0, Complex, complex_permittivity};
 use propagation::{RadioPropagation, SurfacePhysics};
-use receivers::{PathSum, affordable_depth, coherent_paths, distinct_planes};
+use receivers::{PathSum, coherent_paths};
 
 /// Free-space path loss `20 log10(4 pi d f / c)` in dB (Friis).
 pub fn free_space_path_loss_db(distance_m: f64, freq_hz: f64) -> f64 {
@@ -150,7 +151,7 @@ pub fn simulate_on(
     let mut coverage = Coverage::empty(config.grid);
     let mut rx_power_mw = vec![0.0; config.grid.cells()];
     let mut transmitters = Vec::new();
-    let planes = if config.receivers.is_empty() { Vec::new() } else { distinct_planes(&world.scene.mesh) };
+    let planes = if config.receivers.is_empty() { Planes::default() } else { Planes::of(&world.scene.mesh) };
     for (ti, tx) in config.transmitters.iter().enumerate() {
         let eta =
             surface_permittivities(world, tx.freq_ghz, config.extrapolate).map_err(anyhow::Error::msg)?;
@@ -191,7 +192,7 @@ pub fn simulate_on(
             }
             coverage.add(&c);
         }
-        let receiver_depth = affordable_depth(planes.len(), config.max_depth);
+        let receiver_depth = affordable_order(planes.len(), config.max_depth);
         let receivers = config
             .receivers
             .iter()
