@@ -180,7 +180,14 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         .enumerate()
         .map(|(k, path)| ((path / c / 1e-3) as u32, per_crossing * 0.8f32.powi(k as i32)))
         .collect();
-    let got: Vec<(u32, f32)> = record.detections.iter().map(|d| (d.bin, d.energy[3])).collect();
+    // The record's histogram, in fixed point of the launch energy (1 J here).
+    let got: Vec<(u32, f32)> = record.fixed[0]
+        .iter()
+        .enumerate()
+        .filter(|(_, e)| e[3] > 0)
+        .map(|(k, e)| (k as u32, propsim::core::fixed::from_fixed(e[3], 1.0) as f32))
+        .collect();
+    assert_eq!(record.detections, vec![8]);
     assert_eq!(got.len(), expected.len(), "{got:?}");
     for ((gb, ge), (eb, ee)) in got.iter().zip(&expected) {
         assert_eq!(gb, eb);

@@ -9,7 +9,7 @@ use super::image_source::specular_arrivals;
 use super::metrics::{BandMetrics, band_metrics};
 use super::room::reverberation_times;
 use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
-use crate::core::fixed::{add_fixed, from_fixed};
+use crate::core::fixed::from_fixed;
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
 use crate::core::specular::{Planes, affordable_order};
 use crate::core::{Sphere, TimeBins};
@@ -323,28 +323,19 @@ pub fn simulate_on(
         // The histogram reaches the last arrival of any process, ray or image source (bins
         // are agreed by a sum of one slot a process).
         let mut last = vec![0u64; cluster.size() as usize];
-        last[cluster.share().rank as usize] =
-            record.detections.iter().map(|d| u64::from(d.bin) + 1).max().unwrap_or(0).max(image_bins as u64);
+        last[cluster.share().rank as usize] = (record.bins() as u64).max(image_bins as u64);
         cluster.sum_u64(&mut last);
         let bins = (last.iter().copied().max().unwrap_or(0) as usize).min(bin_limit).max(1);
-        // Fixed-point sums (of the energy per ray) are exact in any order, so every split
-        // of the rays over processes and threads gives the same histograms to the last bit.
         let unit = f64::from(prop.ray_energy_j);
         let mut fixed = vec![0u128; receivers.len() * bins * BAND_COUNT];
-        for d in &record.detections {
-            if d.bin as usize >= bins {
-                continue;
-            }
-            let at = (d.receiver as usize * bins + d.bin as usize) * BAND_COUNT;
-            for (slot, e) in fixed[at..at + BAND_COUNT].iter_mut().zip(d.energy) {
-                add_fixed(slot, f64::from(e), unit);
+        for (r, hist) in record.fixed.iter().enumerate() {
+            for (k, e) in hist.iter().enumerate().take(bins) {
+                let at = (r * bins + k) * BAND_COUNT;
+                fixed[at..at + BAND_COUNT].copy_from_slice(e);
             }
         }
-        let mut detections = vec![0u64; receivers.len()];
-        for d in &record.detections {
-            detections[d.receiver as usize] += 1;
-        }
-        drop(record.detections);
+        let mut detections = record.detections.clone();
+        drop(record.fixed);
         let mut counts = [record.segments, record.rays_escaped];
         cluster.sum_u64(&mut counts);
         segments += counts[0];

@@ -34,25 +34,41 @@ pub struct SoundRay {
     pub after_diffuse: bool,
 }
 
-/// Energy recorded by a receiver: `energy[b]` arrived in histogram bin `bin`, before air
-/// absorption.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Detection {
-    pub receiver: u32,
-    pub bin: u32,
-    pub energy: BandValues,
-}
-
-/// What a block of rays produces: detections in trace order, and the energy that escaped
-/// the scene through holes (per band, air losses included, in fixed point of the launch
-/// energy per ray so that sums are exact in any order: see [`crate::core::fixed`]).
+/// What rays deposit: per receiver, the energy per histogram bin and band (before air
+/// absorption) and the number of detections. A block of rays sums its own deposits in f64 in
+/// trace order (`block`); blocks are merged into fixed point (`fixed`, in units of the launch
+/// energy per ray), which is exact in any order, so every split of the rays over threads and
+/// processes gives the same histograms to the last bit (see [`crate::core::fixed`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TraceRecord {
-    pub detections: Vec<Detection>,
+    pub block: Vec<Vec<[f64; BAND_COUNT]>>,
+    pub fixed: Vec<Vec<[u128; BAND_COUNT]>>,
+    pub detections: Vec<u64>,
+    /// Escaped energy per band, air losses included, in fixed point of the launch energy.
     pub escaped: [u128; BAND_COUNT],
     pub rays_escaped: u64,
     /// Straight flights traced (a ray's launch and every reflection start one).
     pub segments: u64,
+}
+
+impl TraceRecord {
+    /// Adds `energy` to receiver `receiver`'s bin `bin` of this block.
+    #[inline]
+    fn deposit(&mut self, receiver: usize, bin: usize, energy: &BandValues) {
+        let hist = &mut self.block[receiver];
+        if hist.len() <= bin {
+            hist.resize(bin + 1, [0.0; BAND_COUNT]);
+        }
+        for (h, e) in hist[bin].iter_mut().zip(energy) {
+            *h += f64::from(*e);
+        }
+        self.detections[receiver] += 1;
+    }
+
+    /// The number of bins any receiver reached.
+    pub fn bins(&self) -> usize {
+        self.fixed.iter().map(Vec::len).max().unwrap_or(0)
+    }
 }
 
 /// The acoustic [`Propagation`]: surface absorption and scattering, sphere receivers with
@@ -87,11 +103,34 @@ impl Propagation for SoundPropagation<'_> {
     type Accum = TraceRecord;
 
     fn new_accum(&self) -> TraceRecord {
-        TraceRecord::default()
+        let n = self.receivers.len();
+        TraceRecord {
+            block: vec![Vec::new(); n],
+            fixed: vec![Vec::new(); n],
+            detections: vec![0; n],
+            ..TraceRecord::default()
+        }
     }
 
     fn merge(&self, into: &mut TraceRecord, other: TraceRecord) {
-        into.detections.extend(other.detections);
+        let unit = f64::from(self.ray_energy_j);
+        for (r, (block, fixed)) in other.block.iter().zip(&other.fixed).enumerate() {
+            let total = &mut into.fixed[r];
+            if total.len() < block.len().max(fixed.len()) {
+                total.resize(block.len().max(fixed.len()), [0; BAND_COUNT]);
+            }
+            for (t, e) in total.iter_mut().zip(block) {
+                for (slot, v) in t.iter_mut().zip(e) {
+                    add_fixed(slot, *v, unit);
+                }
+            }
+            for (t, e) in total.iter_mut().zip(fixed) {
+                for (slot, v) in t.iter_mut().zip(e) {
+                    *slot = slot.saturating_add(*v);
+                }
+            }
+            into.detections[r] += other.detections[r];
+        }
         for (a, b) in into.escaped.iter_mut().zip(other.escaped) {
             *a = a.saturating_add(b);
         }
@@ -149,10 +188,9 @@ impl Propagation for SoundPropagation<'_> {
             let chord = b - a;
             let path_m = path_before_m + 0.5 * (a + b);
             let Some(bin) = self.bins.bin_of_path(f64::from(path_m)) else { continue };
-            let bin = bin as u32;
             let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
             let energy = ray_state.energy.map(|e| e * per_volume);
-            acc.detections.push(Detection { receiver: i as u32, bin, energy });
+            acc.deposit(i, bin, &energy);
         }
     }
 
@@ -279,12 +317,11 @@ impl SoundPropagation<'_> {
                 continue;
             }
             let Some(bin) = self.bins.bin_of_path(f64::from(path_m + d)) else { continue };
-            let bin = bin as u32;
             let mut energy = [0.0; BAND_COUNT];
             for b in 0..BAND_COUNT {
                 energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;
             }
-            acc.detections.push(Detection { receiver: i as u32, bin, energy });
+            acc.deposit(i, bin, &energy);
         }
     }
 }
