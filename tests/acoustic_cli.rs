@@ -35,9 +35,11 @@ fn outputs_are_complete_and_identical_for_one_and_two_threads() {
         assert!(a.join(f).exists(), "{f} missing");
     }
     let metrics = String::from_utf8(read(&a.join("metrics.csv"))).unwrap();
+    // The first ten columns keep their names and places; later ones are appended.
     assert_eq!(
         metrics.lines().next().unwrap(),
-        "source,receiver,band_hz,edt_s,t20_s,t30_s,c50_db,c80_db,d50,ts_ms"
+        "source,receiver,band_hz,edt_s,t20_s,t30_s,c50_db,c80_db,d50,ts_ms,g_db,dynamic_range_db,\
+         truncation_s,t20_r,t30_r,t20_xi_permille,t30_xi_permille,curvature_percent"
     );
     assert_eq!(metrics.lines().count(), 1 + 8);
     let wav = hound::WavReader::open(a.join("ir_S1_R1.wav")).unwrap();

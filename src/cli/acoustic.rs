@@ -9,12 +9,14 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::acoustic::impulse_response::{SAMPLE_RATE_HZ, synthesize};
+use crate::acoustic::metrics::decay_curve;
 use crate::acoustic::{AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate_on};
 use crate::core::Ray;
 use crate::core::rng::{stream, uniform};
 use crate::dist::Cluster;
-use crate::io::plot::{Series, line_chart};
+use crate::io::plot::{Chart, Series, line_chart};
 use crate::io::{file_stem, wav};
+use crate::scene::materials::BAND_COUNT;
 use crate::scene::{self, LoadOptions, World};
 
 #[derive(Args, Debug)]
@@ -80,27 +82,66 @@ fn place_inside(world: &World, hint: Vec3, clearance_m: f32) -> Option<Vec3> {
     })
 }
 
+/// The columns of metrics.csv: ISO 3382-1 parameters (the first ten, fixed), G (ISO 3382-1
+/// A.2.1), the decay's dynamic range and truncation point, and the fit quality of T20 and T30
+/// (r, xi = 1000 (1 - r^2) per mille, curvature C = 100 (T30/T20 - 1) %; ISO 3382-2 Annex B).
+pub const METRICS_COLUMNS: [&str; 18] = [
+    "source",
+    "receiver",
+    "band_hz",
+    "edt_s",
+    "t20_s",
+    "t30_s",
+    "c50_db",
+    "c80_db",
+    "d50",
+    "ts_ms",
+    "g_db",
+    "dynamic_range_db",
+    "truncation_s",
+    "t20_r",
+    "t30_r",
+    "t20_xi_permille",
+    "t30_xi_permille",
+    "curvature_percent",
+];
+
 fn fmt_opt(v: Option<f64>, digits: usize) -> String {
     v.map_or(String::new(), |x| format!("{x:.digits$}"))
 }
 
-/// Writes every output of `result` into `out`.
+/// The bands whose surface data is extrapolated rather than given: a band is extrapolated
+/// when some surface's material gave no value for it (the library's 125 Hz - 4 kHz tables
+/// fill 63 Hz and 8 kHz from the nearest band).
+pub fn extrapolated_bands(world: &World) -> [bool; BAND_COUNT] {
+    std::array::from_fn(|b| {
+        world
+            .scene
+            .surfaces
+            .iter()
+            .filter_map(|s| s.material.as_ref()?.acoustic.as_ref())
+            .any(|a| !a.bands_given.contains(&b))
+    })
+}
+
+/// Writes every output of `result` into `out`. `extrapolated[b]` marks the bands whose
+/// surface data is extrapolated (dashed in the decay plots).
 pub fn write_outputs(
     out: &Path,
     result: &AcousticResult,
     volume_m3: f64,
     seed: u64,
+    extrapolated: &[bool; BAND_COUNT],
 ) -> anyhow::Result<Vec<PathBuf>> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("{}: cannot create the output directory", out.display()))?;
     let mut written = Vec::new();
-    // metrics.csv: exactly the columns of the issue.
+    // metrics.csv: the ten columns of the issue, then (appended, so the first ten keep their
+    // places) G and the figures that say how far the decay parameters can be trusted.
     let metrics_path = out.join("metrics.csv");
     let mut w =
         csv::Writer::from_path(&metrics_path).with_context(|| format!("{}", metrics_path.display()))?;
-    w.write_record([
-        "source", "receiver", "band_hz", "edt_s", "t20_s", "t30_s", "c50_db", "c80_db", "d50", "ts_ms",
-    ])?;
+    w.write_record(METRICS_COLUMNS)?;
     for p in &result.pairs {
         for (b, m) in p.metrics.iter().enumerate() {
             w.write_record([
@@ -114,6 +155,14 @@ pub fn write_outputs(
                 fmt_opt(m.c80_db, 3),
                 fmt_opt(m.d50, 4),
                 fmt_opt(m.ts_ms, 2),
+                fmt_opt(m.g_db, 2),
+                fmt_opt(m.dynamic_range_db, 1),
+                fmt_opt(m.truncation_s, 3),
+                fmt_opt(m.t20_r, 5),
+                fmt_opt(m.t30_r, 5),
+                fmt_opt(m.t20_xi_permille, 2),
+                fmt_opt(m.t30_xi_permille, 2),
+                fmt_opt(m.curvature_percent, 1),
             ])?;
         }
     }
@@ -140,7 +189,7 @@ pub fn write_outputs(
         .pairs
         .par_iter()
         .enumerate()
-        .map(|(i, p)| write_pair(out, result, volume_m3, seed, i, p))
+        .map(|(i, p)| write_pair(out, result, volume_m3, seed, extrapolated, i, p))
         .collect();
     for files in per_pair {
         written.extend(files?);
@@ -154,6 +203,7 @@ fn write_pair(
     result: &AcousticResult,
     volume_m3: f64,
     seed: u64,
+    extrapolated: &[bool; BAND_COUNT],
     i: usize,
     p: &crate::acoustic::PairResult,
 ) -> anyhow::Result<Vec<PathBuf>> {
@@ -185,42 +235,81 @@ fn write_pair(
         let png = out.join(format!("ir_{stem}.png"));
         line_chart(
             &png,
-            &format!("Impulse response {} -> {}", p.source, p.receiver),
-            "time (s)",
-            "level re peak (dB)",
-            (0.0, t_end),
-            (-100.0, 0.0),
-            &[Series { label: "1 ms RMS".into(), points: ir_points }],
+            &Chart {
+                title: &format!("Impulse response {} -> {}", p.source, p.receiver),
+                x_label: "time (s)",
+                y_label: "level re peak (dB)",
+                x_range: (0.0, t_end),
+                y_range: (-100.0, 0.0),
+                marker_label: None,
+            },
+            &[Series::new("1 ms RMS", ir_points)],
         )?;
         written.push(png);
-        let series: Vec<Series> = (0..result.bands_hz.len())
-            .map(|b| {
-                let band: Vec<f64> = p.histogram.iter().map(|h| h[b]).collect();
-                let edc = crate::acoustic::metrics::schroeder_db(&band);
-                Series {
-                    label: format!("{} Hz", result.bands_hz[b]),
-                    points: edc
-                        .iter()
-                        .enumerate()
-                        .filter(|(_, v)| v.is_finite() && **v >= -90.0)
-                        .map(|(k, v)| (k as f64 * result.bin_s, *v))
-                        .collect(),
-                }
-            })
-            .collect();
+        let series = decay_series(&p.histogram, &result.bands_hz, result.bin_s, p.direct_s, extrapolated);
         let png = out.join(format!("decay_{stem}.png"));
         line_chart(
             &png,
-            &format!("Energy decay curves {} -> {}", p.source, p.receiver),
-            "time (s)",
-            "Schroeder decay (dB)",
-            (0.0, t_end),
-            (-90.0, 0.0),
+            &Chart {
+                title: &format!("Energy decay curves {} -> {}", p.source, p.receiver),
+                x_label: "time (s)",
+                y_label: "Schroeder decay (dB)",
+                x_range: (0.0, decay_plot_end_s(&series, t_end)),
+                y_range: (DECAY_PLOT_FLOOR_DB, 0.0),
+                marker_label: Some("truncation (Lundeby)"),
+            },
             &series,
         )?;
         written.push(png);
     }
     Ok(written)
+}
+
+/// Lowest level of the decay plots, dB: T30 needs the curves down to -35 dB.
+const DECAY_PLOT_FLOOR_DB: f64 = -60.0;
+
+/// The decay curves of one pair as chart series: the curves the parameters are computed from
+/// ([`decay_curve`]: from the direct sound's bin on, ending at the truncation point where the
+/// band has a noise floor, that point marked), down to [`DECAY_PLOT_FLOOR_DB`]; bands whose
+/// surface data is extrapolated dashed and labelled so.
+fn decay_series(
+    histogram: &[[f64; BAND_COUNT]],
+    bands_hz: &[f32],
+    bin_s: f64,
+    direct_s: f64,
+    extrapolated: &[bool; BAND_COUNT],
+) -> Vec<Series> {
+    (0..BAND_COUNT.min(bands_hz.len()))
+        .map(|b| {
+            let band: Vec<f64> = histogram.iter().map(|h| h[b]).collect();
+            let curve = decay_curve(&band, bin_s, direct_s);
+            let points: Vec<(f64, f64)> = curve
+                .edc_db
+                .iter()
+                .enumerate()
+                .map(|(k, v)| (curve.start_s + k as f64 * curve.bin_s, *v))
+                .take_while(|(_, v)| v.is_finite() && *v >= DECAY_PLOT_FLOOR_DB)
+                .collect();
+            let markers = match (curve.truncation_s, points.last()) {
+                (Some(_), Some(&last)) if points.len() == curve.edc_db.len() => vec![last],
+                _ => Vec::new(),
+            };
+            let extrap = extrapolated[b];
+            Series {
+                label: format!("{} Hz{}", bands_hz[b], if extrap { " (extrap.)" } else { "" }),
+                points,
+                dashed: extrap,
+                markers,
+            }
+        })
+        .collect()
+}
+
+/// End of the decay plots' time axis: the latest point any curve shows, plus 5 %, within
+/// the histogram.
+fn decay_plot_end_s(series: &[Series], histogram_s: f64) -> f64 {
+    let last = series.iter().filter_map(|s| s.points.last()).map(|p| p.0).fold(0.0f64, f64::max);
+    if last > 0.0 { (1.05 * last).min(histogram_s) } else { histogram_s }
 }
 
 /// The printed summary: room estimates and parameters averaged over the pairs.
@@ -257,6 +346,7 @@ pub fn summary_text(r: &AcousticResult) -> String {
     line("T30 s", &|b| mean(&|m| m.t30_s, b), 3);
     line("C80 dB", &|b| mean(&|m| m.c80_db, b), 2);
     line("D50", &|b| mean(&|m| m.d50, b), 3);
+    line("G dB", &|b| mean(&|m| m.g_db, b), 1);
     let _ = writeln!(o, "(parameters averaged over {} source-receiver pairs)", r.pairs.len());
     o
 }
@@ -360,7 +450,8 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     // Only rank 0 holds the result and writes.
     let Some(result) = result else { return Ok(()) };
     let traced_s = started.elapsed().as_secs_f64();
-    let written = write_outputs(&args.out, &result, result.volume_m3, settings.seed)?;
+    let written =
+        write_outputs(&args.out, &result, result.volume_m3, settings.seed, &extrapolated_bands(&world))?;
     let summary_path = args.out.join("acoustic.json");
     let json = serde_json::json!({
         "propsim_version": env!("CARGO_PKG_VERSION"),
@@ -375,7 +466,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         "notes": {
             "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
             "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",
-            "metrics": "ISO 3382-1 from the Schroeder curve; C50, C80, D50 and Ts counted from the direct-sound arrival d/c",
+            "metrics": "ISO 3382-1 from the Schroeder curve, truncated at the noise floor with late-decay compensation (Lundeby et al. 1995) where the decay has one; C50, C80, D50 and Ts counted from the direct-sound arrival d/c, with the whole 1 ms bin holding the direct sound early; G re the same source at 10 m in a free field",
         },
     });
     std::fs::write(&summary_path, serde_json::to_string_pretty(&json)?)
@@ -389,4 +480,47 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         started.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn decay_series_mark_truncation_and_extrapolated_bands() {
+        // Band 3 decays with T = 1 s into a floor 40 dB below its first bin; the others
+        // decay cleanly (T = 0.5 s) to the end. The direct sound arrives at 12.4 ms.
+        let k3 = 6.0 * std::f64::consts::LN_10;
+        let hist: Vec<[f64; BAND_COUNT]> = (0..2000)
+            .map(|i| {
+                let t = i as f64 * 1e-3 - 0.012;
+                std::array::from_fn(|b| match (t < 0.0, b) {
+                    (true, _) => 0.0,
+                    (false, 3) => (-k3 * t).exp() + 1e-4,
+                    (false, _) => (-2.0 * k3 * t).exp(),
+                })
+            })
+            .collect();
+        let mut extrapolated = [false; BAND_COUNT];
+        extrapolated[0] = true;
+        extrapolated[7] = true;
+        let bands = crate::scene::materials::OCTAVE_BANDS_HZ;
+        let series = decay_series(&hist, &bands, 1e-3, 0.0124, &extrapolated);
+        assert_eq!(series.len(), BAND_COUNT);
+        for (b, s) in series.iter().enumerate() {
+            assert_eq!(s.dashed, b == 0 || b == 7, "{}", s.label);
+            assert_eq!(s.label.ends_with("(extrap.)"), b == 0 || b == 7, "{}", s.label);
+            // Every curve starts at 0 dB at the start of the direct sound's bin.
+            assert!(s.points[0].0 == 0.012 && s.points[0].1.abs() < 1e-9, "{}: {:?}", s.label, s.points[0]);
+            assert!(s.points.iter().all(|p| p.1 >= DECAY_PLOT_FLOOR_DB && p.1 <= 1e-9));
+        }
+        // Only band 3 is truncated: one marker, on the curve's last point, near the crossing
+        // of the decay with the floor (40 dB below the first bin at T = 1 s: 0.67 s later).
+        for (b, s) in series.iter().enumerate() {
+            assert_eq!(s.markers.len(), usize::from(b == 3), "{}", s.label);
+        }
+        let marker = series[3].markers[0];
+        assert_eq!(Some(&marker), series[3].points.last());
+        assert!((marker.0 - (0.012 + 0.667)).abs() < 0.03, "{marker:?}");
+    }
 }
