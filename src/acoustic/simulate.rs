@@ -6,7 +6,7 @@ use serde::Serialize;
 
 use super::air::Air;
 use super::image_source::specular_arrivals;
-use super::metrics::{BandMetrics, band_metrics};
+use super::metrics::{BandMetrics, band_metrics_for_source, pair_warnings};
 use super::room::reverberation_times;
 use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
 use crate::core::fixed::from_fixed;
@@ -100,8 +100,11 @@ pub struct PairResult {
     pub metrics: [BandMetrics; BAND_COUNT],
     /// Image-source paths found (including the direct sound).
     pub specular_paths: usize,
-    /// Ray crossings of the receiver recorded in the histogram.
+    /// Deposits at the receiver recorded in the histogram (ray crossings and diffuse rain).
     pub detections: u64,
+    /// What the numbers of this pair cannot be trusted for (near source, few detections, a
+    /// decay cut short), one sentence each.
+    pub warnings: Vec<String>,
 }
 
 /// Everything a simulation produces.
@@ -383,7 +386,28 @@ pub fn simulate_on(
             let mut metrics = [BandMetrics::default(); BAND_COUNT];
             for (b, m) in metrics.iter_mut().enumerate() {
                 let band: Vec<f64> = hist.iter().map(|h| h[b]).collect();
-                *m = band_metrics(&band, settings.bin_s, direct_s);
+                *m = band_metrics_for_source(&band, settings.bin_s, direct_s, source.power_w);
+            }
+            // Detections are judged over the range T30 uses (to -35 dB at 1 kHz), or the
+            // whole histogram when there is no T30.
+            let span_s =
+                metrics[4].t30_s.map_or(hist.len() as f64 * settings.bin_s - direct_s, |t| t * 35.0 / 60.0);
+            let mut warnings = pair_warnings(distance_m, detections[ri], span_s);
+            let short: Vec<String> = metrics
+                .iter()
+                .zip(OCTAVE_BANDS_HZ)
+                .filter(|(m, _)| m.t30_s.is_none())
+                .map(|(_, hz)| format!("{hz} Hz"))
+                .collect();
+            if !short.is_empty() {
+                warnings.push(format!(
+                    "the decay did not reach 35 dB at {} ({}): no T30 there",
+                    short.join(", "),
+                    match settings.max_time_s {
+                        Some(t) => format!("--max-time-s {t} cut it off"),
+                        None => "too few rays or too much noise".to_string(),
+                    }
+                ));
             }
             pairs.push(PairResult {
                 source: source.name.clone(),
@@ -394,6 +418,7 @@ pub fn simulate_on(
                 metrics,
                 specular_paths: paths.len(),
                 detections: detections[ri],
+                warnings,
             });
         }
     }

@@ -41,7 +41,8 @@ pub struct AcousticArgs {
     /// Output directory.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
-    /// Histogram length, s (default: 1.2 x the longest Eyring time).
+    /// Histogram length, s (default: as long as the traced energy lasts, so every decay runs
+    /// to its end; a warning says when a decay given a limit did not reach 35 dB).
     #[arg(long)]
     pub max_time_s: Option<f64>,
     /// Highest image-source order for the early specular reflections.
@@ -53,6 +54,9 @@ pub struct AcousticArgs {
     /// Switch off air absorption.
     #[arg(long)]
     pub no_air: bool,
+    /// Switch off diffuse rain (receivers then count only the rays that cross them).
+    #[arg(long)]
+    pub no_diffuse_rain: bool,
     /// Air temperature, C (default: the scene's, else 20).
     #[arg(long)]
     pub temperature_c: Option<f64>,
@@ -439,6 +443,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         max_time_s: args.max_time_s.or(desc.max_time_s.map(f64::from)),
         air,
         air_absorption: !args.no_air,
+        diffuse_rain: !args.no_diffuse_rain,
         ism_order: args.ism_order,
         ..Default::default()
     };
@@ -472,6 +477,11 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     std::fs::write(&summary_path, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("{}: cannot write", summary_path.display()))?;
     say!("{}", summary_text(&result).trim_end());
+    for p in &result.pairs {
+        for w in &p.warnings {
+            tell!("warning: {} -> {}: {w}", p.source, p.receiver);
+        }
+    }
     say!(
         "wrote {} files to {} ({} rays/source, {:.2} s)",
         written.len() + 1,
