@@ -323,12 +323,10 @@ pub fn simulate_on(
             .map(|b| b + 1)
             .max()
             .unwrap_or(0);
-        // The histogram reaches the last arrival of any process, ray or image source (bins
-        // are agreed by a sum of one slot a process).
-        let mut last = vec![0u64; cluster.size() as usize];
-        last[cluster.share().rank as usize] = (record.bins() as u64).max(image_bins as u64);
-        cluster.sum_u64(&mut last);
-        let bins = (last.iter().copied().max().unwrap_or(0) as usize).min(bin_limit).max(1);
+        // The histogram reaches the last arrival of any process, ray or image source: every
+        // process must know that length before the sums.
+        let last = cluster.max_u64_everywhere((record.bins() as u64).max(image_bins as u64));
+        let bins = (last as usize).min(bin_limit).max(1);
         let unit = f64::from(prop.ray_energy_j);
         let mut fixed = vec![0u128; receivers.len() * bins * BAND_COUNT];
         for (r, hist) in record.fixed.iter().enumerate() {

@@ -28,6 +28,8 @@ trait Backend {
     /// Element-wise sum over all ranks into rank 0's `data` (others' `data` is unchanged).
     fn sum_u64(&self, data: &mut [u64]);
     fn sum_u32(&self, data: &mut [u32]);
+    /// The largest `value` of any rank, on every rank.
+    fn max_u64_everywhere(&self, value: u64) -> u64;
     /// Waits until every rank gets here.
     fn barrier(&self);
 }
@@ -44,6 +46,9 @@ impl Backend for Solo {
     }
     fn sum_u64(&self, _: &mut [u64]) {}
     fn sum_u32(&self, _: &mut [u32]) {}
+    fn max_u64_everywhere(&self, value: u64) -> u64 {
+        value
+    }
     fn barrier(&self) {}
 }
 
@@ -130,6 +135,17 @@ impl Cluster {
         c.reduce_s += arrived.elapsed().as_secs_f64();
         c.bytes += bytes as u64;
         self.cost.set(c);
+    }
+
+    /// The largest `value` of any process, known to every process (for sizes that all must
+    /// agree on before a sum, such as a histogram's length).
+    pub fn max_u64_everywhere(&self, value: u64) -> u64 {
+        if self.size() == 1 {
+            return value;
+        }
+        let mut out = value;
+        self.timed(8, || out = self.backend.max_u64_everywhere(value));
+        out
     }
 
     /// Element-wise sum over all processes into the root's `data`.

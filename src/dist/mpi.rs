@@ -1,4 +1,5 @@
-//! The MPI transport (rsmpi): `MPI_Reduce` with `MPI_SUM` to rank 0 on the world communicator.
+//! The MPI transport (rsmpi): `MPI_Reduce` with `MPI_SUM` to rank 0 on the world communicator,
+//! and `MPI_Allreduce` with `MPI_MAX` for the sizes every rank must agree on.
 
 use mpi::Threading;
 use mpi::collective::SystemOperation;
@@ -52,6 +53,11 @@ impl Backend for MpiBackend {
     }
     fn sum_u32(&self, data: &mut [u32]) {
         self.sum(data);
+    }
+    fn max_u64_everywhere(&self, value: u64) -> u64 {
+        let mut out = 0u64;
+        self.world.all_reduce_into(&value, &mut out, SystemOperation::max());
+        out
     }
     fn barrier(&self) {
         self.world.barrier();
