@@ -5,13 +5,17 @@ use std::path::{Path, PathBuf};
 use propsim::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
 use propsim::scene::{self, LoadOptions, World};
 
-/// A closed box room [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
-fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> World {
-    let [x, y, z] = size;
-    let obj = format!(
+/// The OBJ text of a closed box [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
+fn box_obj([x, y, z]: [f32; 3]) -> String {
+    format!(
         "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
          usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
-    );
+    )
+}
+
+/// A closed box room [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
+fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> World {
+    let obj = box_obj(size);
     let obj_path = dir.join("room.obj");
     std::fs::write(&obj_path, obj).unwrap();
     let mats = dir.join("mats.toml");
@@ -292,11 +296,7 @@ fn box_room_with_sphere(
     ball: (f32, f32),
     sphere: ([f32; 3], f32),
 ) -> World {
-    let [x, y, z] = size;
-    let obj = format!(
-        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
-         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
-    );
+    let obj = box_obj(size);
     std::fs::write(dir.join("room.obj"), obj).unwrap();
     let ([cx, cy, cz], r) = sphere;
     let toml = format!(
