@@ -385,17 +385,8 @@ fn a_lossless_sphere_in_a_lossless_room_reflects_and_takes_up_air() {
 fn the_showcase_decays_reach_60_db_in_every_band() {
     use propsim::acoustic::metrics::schroeder_db;
     let world = World::build(scene::load(Path::new("builtin:showcase"), &LoadOptions::default()).unwrap());
-    let desc = world.scene.desc.acoustic.clone().unwrap();
-    let sources: Vec<SourceSpec> = desc
-        .sources
-        .iter()
-        .map(|p| SourceSpec { name: p.name.clone(), position: p.position, power_w: 1.0 })
-        .collect();
-    let receivers: Vec<ReceiverSpec> = desc
-        .receivers
-        .iter()
-        .map(|p| ReceiverSpec { name: p.name.clone(), position: p.position, radius_m: p.radius_m })
-        .collect();
+    let (sources, receivers) = propsim::acoustic::scene_points(&world);
+    assert_eq!((sources.len(), receivers.len()), (1, 2));
     let settings = AcousticSettings { rays: 30_000, ..Default::default() };
     let r = simulate(&world, &sources, &receivers, &settings, &|_| {}).unwrap();
     for pair in &r.pairs {

@@ -12,5 +12,6 @@ pub mod tracer;
 
 pub use air::Air;
 pub use simulate::{
-    AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, simulate, simulate_on,
+    AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, scene_points, simulate,
+    simulate_on,
 };

@@ -129,6 +129,29 @@ pub struct AcousticResult {
     pub settings: AcousticSettings,
 }
 
+/// The scene file's acoustic sources and receivers, with 1 W where a source gives no power
+/// and the default radius rule where a receiver gives none.
+pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
+    let Some(desc) = &world.scene.desc.acoustic else {
+        return (Vec::new(), Vec::new());
+    };
+    let sources = desc
+        .sources
+        .iter()
+        .map(|p| SourceSpec {
+            name: p.name.clone(),
+            position: p.position,
+            power_w: f64::from(p.power_w.unwrap_or(1.0)),
+        })
+        .collect();
+    let receivers = desc
+        .receivers
+        .iter()
+        .map(|p| ReceiverSpec { name: p.name.clone(), position: p.position, radius_m: p.radius_m })
+        .collect();
+    (sources, receivers)
+}
+
 /// Default receiver radius: about ten ray detections per 1 ms bin once the sound field is
 /// diffuse, r = sqrt(10 V / (pi N c dt)), within 0.05 m to 0.5 m.
 pub fn default_receiver_radius_m(volume_m3: f64, rays: u64, speed_m_s: f64, bin_s: f64) -> f32 {

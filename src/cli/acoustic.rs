@@ -370,15 +370,9 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         );
     }
     let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
+    let (scene_sources, scene_receivers) = crate::acoustic::scene_points(&world);
     let mut sources: Vec<SourceSpec> = if args.sources.is_empty() {
-        desc.sources
-            .iter()
-            .map(|p| SourceSpec {
-                name: p.name.clone(),
-                position: p.position,
-                power_w: f64::from(p.power_w.unwrap_or(1.0)),
-            })
-            .collect()
+        scene_sources
     } else {
         args.sources
             .iter()
@@ -387,13 +381,9 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
             .collect()
     };
     let mut receivers: Vec<ReceiverSpec> = if args.receivers.is_empty() {
-        desc.receivers
-            .iter()
-            .map(|p| ReceiverSpec {
-                name: p.name.clone(),
-                position: p.position,
-                radius_m: args.receiver_radius_m.or(p.radius_m),
-            })
+        scene_receivers
+            .into_iter()
+            .map(|r| ReceiverSpec { radius_m: args.receiver_radius_m.or(r.radius_m), ..r })
             .collect()
     } else {
         args.receivers

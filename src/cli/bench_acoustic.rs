@@ -9,7 +9,7 @@ use clap::Args;
 
 use super::bench_trace::{median, peak_rss_mb};
 use crate::acoustic::impulse_response::synthesize;
-use crate::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
+use crate::acoustic::{AcousticSettings, scene_points, simulate};
 use crate::scene::{self, LoadOptions, World};
 
 #[derive(Args, Debug)]
@@ -34,16 +34,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
     for path in scenes {
         let world = World::build(scene::load(&path, &LoadOptions::default())?);
         let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
-        let sources: Vec<SourceSpec> = desc
-            .sources
-            .iter()
-            .map(|p| SourceSpec { name: p.name.clone(), position: p.position, power_w: 1.0 })
-            .collect();
-        let receivers: Vec<ReceiverSpec> = desc
-            .receivers
-            .iter()
-            .map(|p| ReceiverSpec { name: p.name.clone(), position: p.position, radius_m: p.radius_m })
-            .collect();
+        let (sources, receivers) = scene_points(&world);
         anyhow::ensure!(
             !sources.is_empty() && !receivers.is_empty(),
             "{}: the scene has no sources or receivers",
