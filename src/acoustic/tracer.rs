@@ -2,7 +2,7 @@
 //! Each ray carries energy in eight octave bands; surfaces absorb and scatter it; sphere
 //! receivers record what passes through them.
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 use crate::core::TimeBins;
 use crate::core::accel::Accel;
@@ -78,8 +78,7 @@ pub struct SoundPropagation<'a> {
     pub receivers: &'a [Sphere],
     /// Energy per ray at launch, J (source energy / ray count).
     pub ray_energy_j: f32,
-    /// Air energy attenuation per band, 1/m: used for the escaped energy and, through its
-    /// smallest value, to bound a ray's remaining energy in the roulette test.
+    /// Air energy attenuation per band, 1/m: used for the escaped energy.
     pub air_per_m: BandValues,
     /// Histogram time bins: a detection after l metres falls in bin floor(l / c / bin_s);
     /// arrivals past the last bin are dropped.
@@ -145,8 +144,9 @@ impl Propagation for SoundPropagation<'_> {
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds
     /// E l / V (energy density times... integrated over time: J/m^2), whose expectation over
     /// rays is the energy fluence E_source / (4 pi d^2) of the direct sound for any radius
-    /// and ray count (Vorlaender, Auralization, sec. 11.3; docs/acoustics.md).
-    #[inline]
+    /// and ray count (Vorlaender, Auralization, sec. 11.3; docs/acoustics.md). Inlined into
+    /// the launcher's AVX2 loop, where the eight bands are one vector.
+    #[inline(always)]
     fn segment(
         &self,
         acc: &mut TraceRecord,
@@ -202,12 +202,13 @@ impl Propagation for SoundPropagation<'_> {
     /// over many reflections (a plain mean of s_b lets them, which made rare rays carry
     /// -20 dB of energy into the late decay).
     ///
-    /// Then Russian roulette (Arvo and Kirk 1990): once the ray's strongest band, times the
-    /// smallest air loss over its path, is below `roulette_factor` of its launch energy, it
+    /// Then Russian roulette (Arvo and Kirk 1990): once the ray's strongest band is below
+    /// `roulette_factor` of its launch energy (air losses left out: the least absorbed band
+    /// loses well under 1 dB over any decay, so they would not change the test), it
     /// survives with probability q = that level / threshold and is scaled by 1 / q. The
     /// expected energy of every band is unchanged, so the decay is traced to its end without
     /// a cut-off, while the weak tail costs a few reflections a ray.
-    #[inline]
+    #[inline(always)]
     fn interact(
         &self,
         acc: &mut TraceRecord,
@@ -219,62 +220,54 @@ impl Propagation for SoundPropagation<'_> {
     ) -> Bounce {
         let surface = &self.surfaces[hit.surface as usize];
         let (a, s) = (&surface.absorption, &surface.scattering);
-        let e = &mut ray_state.energy;
-        // Lane-wise arithmetic and fixed-order sums over the eight bands (they vectorise).
-        let mut scattered = [0.0f32; BAND_COUNT];
-        for b in 0..BAND_COUNT {
-            scattered[b] = e[b] * s[b];
-        }
-        let (total, weighted) = (sum_bands(e), sum_bands(&scattered));
+        // The eight bands as two 4-lane vectors; the sums add in a fixed order.
+        let (e_lo, e_hi) = halves(&ray_state.energy);
+        let (s_lo, s_hi) = halves(s);
+        let (keep_lo, keep_hi) = halves(a);
+        let (keep_lo, keep_hi) = (Vec4::ONE - keep_lo, Vec4::ONE - keep_hi);
+        let (scattered_lo, scattered_hi) = (e_lo * s_lo, e_hi * s_hi);
+        let (total, weighted) = (sum_halves(e_lo, e_hi), sum_halves(scattered_lo, scattered_hi));
         if weighted > 0.0
             && let Some(accel) = self.diffuse_rain
         {
-            self.rain(accel, acc, hit, &scattered, &surface.absorption, path_m);
+            let scattered = join(scattered_lo, scattered_hi);
+            self.rain(accel, acc, hit, &scattered, a, path_m);
         }
         let s_mean = if total > 0.0 { (weighted / total).clamp(0.0, 1.0) } else { 0.0 };
         let diffuse = s_mean > 0.0 && uniform(rng) < s_mean;
-        if diffuse {
-            let k = 1.0 / s_mean;
-            for b in 0..BAND_COUNT {
-                e[b] = scattered[b] * (1.0 - a[b]) * k;
-            }
+        let (mut lo, mut hi) = if diffuse {
+            let k = Vec4::splat(1.0 / s_mean);
+            (scattered_lo * keep_lo * k, scattered_hi * keep_hi * k)
         } else {
-            let k = 1.0 / (1.0 - s_mean);
-            for b in 0..BAND_COUNT {
-                e[b] = (e[b] - scattered[b]) * (1.0 - a[b]) * k;
-            }
-        }
-        let mut peak = [0.0f32; 4];
-        for b in 0..BAND_COUNT {
-            peak[b % 4] = peak[b % 4].max(e[b]);
-        }
-        let peak = peak[0].max(peak[1]).max(peak[2].max(peak[3]));
+            let k = Vec4::splat(1.0 / (1.0 - s_mean));
+            ((e_lo - scattered_lo) * keep_lo * k, (e_hi - scattered_hi) * keep_hi * k)
+        };
+        let level = lo.max(hi).max_element();
         let threshold = self.ray_energy_j * self.roulette_factor;
-        let air_min = self.air_per_m.iter().fold(f32::INFINITY, |m, &x| m.min(x));
-        let level = peak * (-air_min * path_m).exp();
         // (A NaN level fails both tests and stops the ray.)
         if level.is_nan() || level < threshold {
             let survival = level / threshold;
             if survival.is_nan() || uniform(rng) >= survival {
                 return Bounce::Stop;
             }
-            let boost = 1.0 / survival;
-            e.iter_mut().for_each(|x| *x *= boost);
+            let boost = Vec4::splat(1.0 / survival);
+            (lo, hi) = (lo * boost, hi * boost);
         }
-        let n = hit.facing_normal();
+        ray_state.energy = join(lo, hi);
         ray_state.after_diffuse = diffuse;
         if diffuse {
             ray_state.specular_order = None;
             let local = cosine_hemisphere(Vec2::new(uniform(rng), uniform(rng)));
-            Bounce::Continue(to_world(local, n).normalize())
-        } else if hit.kind == PrimitiveKind::Sphere {
-            // A curved mirror has no image source: the rays keep what they find.
-            ray_state.specular_order = None;
-            Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
-        } else {
-            ray_state.specular_order = ray_state.specular_order.map(|o| o + 1);
-            Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
+            return Bounce::Continue(to_world(local, hit.facing_normal()).normalize());
         }
+        ray_state.specular_order = match hit.kind {
+            // A curved mirror has no image source: the rays keep what they find.
+            PrimitiveKind::Sphere => None,
+            PrimitiveKind::Triangle => ray_state.specular_order.map(|o| o + 1),
+        };
+        // The mirror direction is the same for either orientation of the normal.
+        let n = hit.normal;
+        Bounce::Continue((incoming - 2.0 * incoming.dot(n) * n).normalize())
     }
 }
 
@@ -326,8 +319,23 @@ impl SoundPropagation<'_> {
     }
 }
 
-/// The sum of eight band values in a fixed order (pairwise, so that it vectorises).
+/// Bands 0-3 and 4-7 of `v`.
 #[inline(always)]
-fn sum_bands(v: &BandValues) -> f32 {
-    ((v[0] + v[4]) + (v[2] + v[6])) + ((v[1] + v[5]) + (v[3] + v[7]))
+fn halves(v: &BandValues) -> (Vec4, Vec4) {
+    (Vec4::new(v[0], v[1], v[2], v[3]), Vec4::new(v[4], v[5], v[6], v[7]))
+}
+
+/// The eight bands of two halves.
+#[inline(always)]
+fn join(lo: Vec4, hi: Vec4) -> BandValues {
+    let (l, h) = (lo.to_array(), hi.to_array());
+    [l[0], l[1], l[2], l[3], h[0], h[1], h[2], h[3]]
+}
+
+/// The sum of eight band values in a fixed order: ((v0 + v4) + (v2 + v6)) + ((v1 + v5) +
+/// (v3 + v7)).
+#[inline(always)]
+fn sum_halves(lo: Vec4, hi: Vec4) -> f32 {
+    let pairs = lo + hi;
+    (pairs.x + pairs.z) + (pairs.y + pairs.w)
 }

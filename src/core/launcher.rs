@@ -165,10 +165,15 @@ fn trace_block_avx2<P: Propagation>(
     trace_block(accel, prop, launch, rotation, range, accum);
 }
 
-/// Traces rays `first..last` of a launch to their ends, bounce by bounce: every ray still in
-/// flight is traced through one batch query ([`Accel::closest_hits_into`], the code that
-/// `propsim bench trace` measures), then each deposits its segment and meets its surface in
-/// ray order. The order of deposits depends only on the block, never on threads.
+/// Traces rays `first..last` of a launch to their ends. On trees large enough for streams
+/// ([`super::traverse::Traverser::streams`]), every ray still in flight is traced through one
+/// batch query per bounce ([`Accel::closest_hits_into`], the code that `propsim bench trace`
+/// measures); then each deposits its segment and meets its surface in ray order. Smaller
+/// scenes stay in the cache, where the batch query is the single-ray query in a loop: there
+/// each ray is traced to its end on its own ([`Accel::closest_hit`], the same query), which
+/// keeps the ray in registers instead of cycling a block's flights through memory (measured
+/// on the shoebox of `benches/peers`, see docs/performance.md). Either way the order of
+/// deposits depends only on the block and the scene, never on threads.
 #[inline(always)]
 fn trace_block<P: Propagation>(
     accel: &Accel,
@@ -178,6 +183,23 @@ fn trace_block<P: Propagation>(
     (first, last): (u64, u64),
     accum: &mut P::Accum,
 ) {
+    if !accel.mesh.traverser().streams() {
+        let mut pending = Vec::new();
+        for i in first..last {
+            let mut flight = depart(prop, launch, rotation, i);
+            loop {
+                let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
+                let hit = accel.closest_hit(&ray);
+                if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref(), &mut pending) {
+                    match pending.pop() {
+                        Some(branch) => flight = branch,
+                        None => break,
+                    }
+                }
+            }
+        }
+        return;
+    }
     let mut flights: Vec<Flight<P::Payload>> =
         (first..last).map(|i| depart(prop, launch, rotation, i)).collect();
     let mut branches = Vec::new();
@@ -192,36 +214,54 @@ fn trace_block<P: Propagation>(
         // Flights that go on are kept in order at the front (a stable compaction in place).
         let mut kept = 0;
         for (i, (ray, hit)) in rays.iter().zip(&hits).enumerate() {
-            let f = &mut flights[i];
-            let length = hit.as_ref().map_or(ray.t_max, |h| h.t);
-            prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
-            let Some(hit) = hit else { continue };
-            f.path_m += hit.t;
-            if f.reflections >= launch.max_reflections {
-                continue;
-            }
-            if let Some(through) = prop.transmit(&f.payload, hit, ray.dir) {
-                // The branch draws from its own stream, seeded from its parent's.
-                branches.push(Flight {
-                    ray: Ray::spawn(hit.point, hit.normal, ray.dir),
-                    payload: through,
-                    path_m: f.path_m,
-                    reflections: f.reflections + 1,
-                    rng: Rng64::from_rng(&mut f.rng),
-                });
-            }
-            match prop.interact(accum, &mut f.payload, hit, ray.dir, f.path_m, &mut f.rng) {
-                Bounce::Continue(d) => {
-                    f.ray = Ray::spawn(hit.point, hit.normal, d);
-                    f.reflections += 1;
+            if step(prop, launch, accum, &mut flights[i], ray, hit.as_ref(), &mut branches) {
+                if kept != i {
                     flights.swap(kept, i);
-                    kept += 1;
                 }
-                Bounce::Stop => {}
+                kept += 1;
             }
         }
         flights.truncate(kept);
         flights.append(&mut branches);
+    }
+}
+
+/// One bounce of `flight` along `ray`, which met `hit` (or nothing): the segment's deposits,
+/// then the surface (a transmitted branch goes to `branches`). True if the flight goes on.
+#[inline(always)]
+fn step<P: Propagation>(
+    prop: &P,
+    launch: &Launch,
+    accum: &mut P::Accum,
+    f: &mut Flight<P::Payload>,
+    ray: &Ray,
+    hit: Option<&Hit>,
+    branches: &mut Vec<Flight<P::Payload>>,
+) -> bool {
+    let length = hit.map_or(ray.t_max, |h| h.t);
+    prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
+    let Some(hit) = hit else { return false };
+    f.path_m += hit.t;
+    if f.reflections >= launch.max_reflections {
+        return false;
+    }
+    if let Some(through) = prop.transmit(&f.payload, hit, ray.dir) {
+        // The branch draws from its own stream, seeded from its parent's.
+        branches.push(Flight {
+            ray: Ray::spawn(hit.point, hit.normal, ray.dir),
+            payload: through,
+            path_m: f.path_m,
+            reflections: f.reflections + 1,
+            rng: Rng64::from_rng(&mut f.rng),
+        });
+    }
+    match prop.interact(accum, &mut f.payload, hit, ray.dir, f.path_m, &mut f.rng) {
+        Bounce::Continue(d) => {
+            f.ray = Ray::spawn(hit.point, hit.normal, d);
+            f.reflections += 1;
+            true
+        }
+        Bounce::Stop => false,
     }
 }
 

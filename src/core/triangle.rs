@@ -23,22 +23,18 @@ impl RayShear {
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
+        // The dominant axis without branches (incoherent rays would mispredict them): x if it
+        // is at least y and z, else y if at least z, else z.
+        let x_dominant = (a.x >= a.y) & (a.x >= a.z);
+        let kz = usize::from(!x_dominant) * (2 - usize::from(a.y >= a.z));
         // An array indexed at run time is a load; a `Vec3` is a chain of selects. Measured:
         // 3 % fewer instructions and 4 % more samples/s in `propsim render`, the 1M-triangle
         // tree within noise (-2 % to +1 %).
         let d = dir.to_array();
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let (next, after) = ((kz + 1) % 3, (kz + 2) % 3);
+        let negative = d[kz] < 0.0;
+        let kx = if negative { after } else { next };
+        let ky = if negative { next } else { after };
         Self { origin: origin.into(), kx, ky, kz, sx: d[kx] / d[kz], sy: d[ky] / d[kz], sz: 1.0 / d[kz] }
     }
 }
