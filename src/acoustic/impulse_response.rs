@@ -4,8 +4,10 @@
 //! so its energy equals the histogram's, then summed. The band filters are minimum-phase, so
 //! the response is silent before the first arrival (the direct sound).
 
-use rustfft::FftPlanner;
+use std::sync::{Arc, Mutex};
+
 use rustfft::num_complex::Complex;
+use rustfft::{Fft, FftPlanner};
 
 use super::air::exact_octave_midbands_hz;
 use crate::core::rng::{stream, uniform};
@@ -103,6 +105,47 @@ fn minimum_phase(
     c.into_iter().map(Complex::exp).collect()
 }
 
+/// The octave-band filters of [`synthesize`] at one FFT size, with the FFTs' plans.
+struct BandFilters {
+    forward: Arc<dyn Fft<f64>>,
+    inverse: Arc<dyn Fft<f64>>,
+    /// Each band's share of a white spectrum's energy, `sum |H|^2 / N`.
+    share: [f64; BAND_COUNT],
+    /// Each band's minimum-phase filter ([`minimum_phase`]), as spectrum values.
+    filter: Vec<Vec<Complex<f64>>>,
+}
+
+/// The band filters for `n_fft`, designed once per size and process: every source-receiver
+/// pair of a run has the same length, and designing a filter costs two FFTs and a complex
+/// exponential per bin, as much as filtering with it.
+fn band_filters(n_fft: usize) -> Arc<BandFilters> {
+    static CACHE: Mutex<Vec<(usize, Arc<BandFilters>)>> = Mutex::new(Vec::new());
+    // A poisoned lock only means another thread panicked while designing; the list itself is
+    // always whole.
+    let mut cache = CACHE.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    if let Some((_, filters)) = cache.iter().find(|(n, _)| *n == n_fft) {
+        return Arc::clone(filters);
+    }
+    let fs = f64::from(SAMPLE_RATE_HZ);
+    let mut planner = FftPlanner::<f64>::new();
+    let forward = planner.plan_fft_forward(n_fft);
+    let inverse = planner.plan_fft_inverse(n_fft);
+    let mut share = [0.0; BAND_COUNT];
+    let mut filter = Vec::with_capacity(BAND_COUNT);
+    for (b, edges) in band_edges_hz(fs).into_iter().enumerate() {
+        let magnitude = band_magnitude(n_fft, fs, edges);
+        share[b] = magnitude.iter().map(|m| m * m).sum::<f64>() / n_fft as f64;
+        filter.push(minimum_phase(&magnitude, forward.as_ref(), inverse.as_ref()));
+    }
+    let filters = Arc::new(BandFilters { forward, inverse, share, filter });
+    // Two sizes at most are kept (a run and the one before), which bounds the memory.
+    if cache.len() >= 2 {
+        cache.remove(0);
+    }
+    cache.push((n_fft, Arc::clone(&filters)));
+    filters
+}
+
 /// The Dirac sequence: arrival rate 4 pi c^3 t^2 / V (the density of reflections in a room
 /// of volume V, Kuttruff eq. 4.3), capped at a quarter of the sample rate, random signs.
 fn dirac_sequence(samples: usize, volume_m3: f64, speed_m_s: f64, seed: u64) -> Vec<f32> {
@@ -166,82 +209,118 @@ pub fn synthesize(
     let dirac_energy: Vec<f64> =
         diracs.chunks(per_bin).map(|c| c.iter().map(|&d| f64::from(d) * f64::from(d)).sum()).collect();
     let n_fft = samples.next_power_of_two() * 2;
-    let mut planner = FftPlanner::<f64>::new();
-    let forward = planner.plan_fft_forward(n_fft);
-    let inverse = planner.plan_fft_inverse(n_fft);
+    let filters = band_filters(n_fft);
+    let edges = band_edges_hz(fs);
     let mut out = vec![0.0f64; samples];
     let scale = 1.0 / n_fft as f64;
-    for (b, edges) in band_edges_hz(fs).into_iter().enumerate() {
-        let magnitude = band_magnitude(n_fft, fs, edges);
-        let share = magnitude.iter().map(|m| m * m).sum::<f64>() / n_fft as f64;
-        if share <= 0.0 {
-            // A band narrower than the FFT's resolution (a histogram of a few ms) cannot be
-            // represented.
-            continue;
+    // The weighted Dirac sequence of band `b` (zero if the band cannot be represented).
+    let weighted = |b: usize, n: usize| -> f64 {
+        let k = n / per_bin;
+        let (e, d) = (histogram[k][b], dirac_energy[k]);
+        if e <= 0.0 || d <= 0.0 || filters.share[b] <= 0.0 {
+            return 0.0;
         }
-        let mut band = vec![Complex::new(0.0, 0.0); n_fft];
-        for (k, bin) in histogram.iter().enumerate() {
-            if bin[b] <= 0.0 || dirac_energy[k] <= 0.0 {
+        (e / (d * filters.share[b])).sqrt() * f64::from(diracs[n])
+    };
+    // Two bands share one complex FFT, one as the real part and one as the imaginary part:
+    // both signals and both filters' responses are real, so each band's spectrum follows from
+    // the pair's by conjugate symmetry, X[k] = (Z[k] + conj(Z[N-k])) / 2 and
+    // Y[k] = (Z[k] - conj(Z[N-k])) / 2i, and the filtered pair X H_a + i Y H_b transforms
+    // back to band a in the real part and band b in the imaginary part (Press et al.,
+    // Numerical Recipes, 3rd ed. 2007, sec. 12.3.2).
+    let mut z = vec![Complex::new(0.0, 0.0); n_fft];
+    for pair in 0..BAND_COUNT / 2 {
+        let (a, b) = (2 * pair, 2 * pair + 1);
+        z.fill(Complex::new(0.0, 0.0));
+        for (n, v) in z[..samples].iter_mut().enumerate() {
+            if diracs[n] != 0.0 {
+                *v = Complex::new(weighted(a, n), weighted(b, n));
+            }
+        }
+        filters.forward.process(&mut z);
+        let (h_a, h_b) = (&filters.filter[a], &filters.filter[b]);
+        let half = Complex::new(0.5, 0.0);
+        let minus_half_i = Complex::new(0.0, -0.5);
+        let i = Complex::new(0.0, 1.0);
+        for k in 0..=n_fft / 2 {
+            let m = (n_fft - k) % n_fft;
+            let (zk, zm) = (z[k], z[m]);
+            let (x_k, y_k) = ((zk + zm.conj()) * half, (zk - zm.conj()) * minus_half_i);
+            let (x_m, y_m) = (x_k.conj(), y_k.conj());
+            z[k] = x_k * h_a[k] + i * y_k * h_b[k];
+            z[m] = x_m * h_a[m] + i * y_m * h_b[m];
+        }
+        filters.inverse.process(&mut z);
+        for (band, part) in [(a, 0), (b, 1)] {
+            if filters.share[band] <= 0.0 {
+                // A band narrower than the FFT's resolution (a histogram of a few ms) cannot
+                // be represented.
                 continue;
             }
-            let gain = (bin[b] / (dirac_energy[k] * share)).sqrt();
-            for n in k * per_bin..(k + 1) * per_bin {
-                band[n].re = gain * f64::from(diracs[n]);
-            }
-        }
-        forward.process(&mut band);
-        let filter = minimum_phase(&magnitude, forward.as_ref(), inverse.as_ref());
-        for (v, h) in band.iter_mut().zip(&filter) {
-            *v *= h;
-        }
-        inverse.process(&mut band);
-        let mut filtered: Vec<f64> = band[..samples].iter().map(|v| v.re * scale).collect();
-        filtered[..onset].fill(0.0);
-        // A few strong Diracs closer together than the band's coherence time (1 / bandwidth)
-        // interfere, so one realisation misses the target energy; correct it over windows of
-        // at least 4 / bandwidth with gains interpolated between window centres. The windows
-        // last at least MIN_WINDOW_S so that a causal response reaching past the end of its
-        // window (0.5 ms at 8 kHz) holds a small part of the window's energy.
-        let bandwidth = (edges.1.min(fs / 2.0) - edges.0).max(1.0);
-        let window_bins = ((4.0 / bandwidth).max(MIN_WINDOW_S) / bin_s).ceil().max(1.0) as usize;
-        let windows: Vec<(f64, f64)> = histogram
-            .chunks(window_bins)
-            .enumerate()
-            .map(|(w, chunk)| {
-                let target: f64 = chunk.iter().map(|h| h[b]).sum();
-                let start = w * window_bins * per_bin;
-                let end = (start + chunk.len() * per_bin).min(samples);
-                let energy: f64 = filtered[start..end].iter().map(|v| v * v).sum();
-                let gain = if energy > 0.0 { (target / energy).sqrt() } else { 0.0 };
-                (0.5 * (start + end) as f64, gain)
-            })
-            .collect();
-        let mut w = 0;
-        let mut shaped = vec![0.0f64; samples];
-        for (n, (o, v)) in shaped.iter_mut().zip(&filtered).enumerate() {
-            let x = n as f64;
-            while w + 1 < windows.len() && windows[w + 1].0 <= x {
-                w += 1;
-            }
-            let gain = match windows.get(w + 1) {
-                Some(&(c1, g1)) if x >= windows[w].0 => {
-                    let (c0, g0) = windows[w];
-                    g0 + (g1 - g0) * (x - c0) / (c1 - c0)
-                }
-                _ => windows[w].1,
-            };
-            *o = gain * v;
-        }
-        // Interpolated gains shift energy between neighbouring windows; one scalar restores
-        // the band's total exactly.
-        let target: f64 = histogram.iter().map(|h| h[b]).sum();
-        let energy: f64 = shaped.iter().map(|v| v * v).sum();
-        let correction = if energy > 0.0 { (target / energy).sqrt() } else { 0.0 };
-        for (o, v) in out.iter_mut().zip(&shaped) {
-            *o += correction * v;
+            let filtered: Vec<f64> =
+                z[..samples].iter().map(|v| if part == 0 { v.re } else { v.im } * scale).collect();
+            add_band(&mut out, filtered, histogram, band, edges[band], (bin_s, per_bin, onset));
         }
     }
     out.into_iter().map(|v| v as f32).collect()
+}
+
+/// Adds band `b` of the response to `out`: `filtered`, the band's filtered Dirac sequence,
+/// silenced before the onset and corrected to the histogram's energy window by window.
+fn add_band(
+    out: &mut [f64],
+    mut filtered: Vec<f64>,
+    histogram: &[[f64; BAND_COUNT]],
+    b: usize,
+    edges: (f64, f64),
+    (bin_s, per_bin, onset): (f64, usize, usize),
+) {
+    let fs = f64::from(SAMPLE_RATE_HZ);
+    let samples = filtered.len();
+    filtered[..onset].fill(0.0);
+    // A few strong Diracs closer together than the band's coherence time (1 / bandwidth)
+    // interfere, so one realisation misses the target energy; correct it over windows of
+    // at least 4 / bandwidth with gains interpolated between window centres. The windows
+    // last at least MIN_WINDOW_S so that a causal response reaching past the end of its
+    // window (0.5 ms at 8 kHz) holds a small part of the window's energy.
+    let bandwidth = (edges.1.min(fs / 2.0) - edges.0).max(1.0);
+    let window_bins = ((4.0 / bandwidth).max(MIN_WINDOW_S) / bin_s).ceil().max(1.0) as usize;
+    let windows: Vec<(f64, f64)> = histogram
+        .chunks(window_bins)
+        .enumerate()
+        .map(|(w, chunk)| {
+            let target: f64 = chunk.iter().map(|h| h[b]).sum();
+            let start = w * window_bins * per_bin;
+            let end = (start + chunk.len() * per_bin).min(samples);
+            let energy: f64 = filtered[start..end].iter().map(|v| v * v).sum();
+            let gain = if energy > 0.0 { (target / energy).sqrt() } else { 0.0 };
+            (0.5 * (start + end) as f64, gain)
+        })
+        .collect();
+    let mut w = 0;
+    let mut shaped = vec![0.0f64; samples];
+    for (n, (o, v)) in shaped.iter_mut().zip(&filtered).enumerate() {
+        let x = n as f64;
+        while w + 1 < windows.len() && windows[w + 1].0 <= x {
+            w += 1;
+        }
+        let gain = match windows.get(w + 1) {
+            Some(&(c1, g1)) if x >= windows[w].0 => {
+                let (c0, g0) = windows[w];
+                g0 + (g1 - g0) * (x - c0) / (c1 - c0)
+            }
+            _ => windows[w].1,
+        };
+        *o = gain * v;
+    }
+    // Interpolated gains shift energy between neighbouring windows; one scalar restores
+    // the band's total exactly.
+    let target: f64 = histogram.iter().map(|h| h[b]).sum();
+    let energy: f64 = shaped.iter().map(|v| v * v).sum();
+    let correction = if energy > 0.0 { (target / energy).sqrt() } else { 0.0 };
+    for (o, v) in out.iter_mut().zip(&shaped) {
+        *o += correction * v;
+    }
 }
 
 /// Energy per bin and band of a signal, measured with the same band split: the inverse of
