@@ -1,12 +1,12 @@
 //! `cargo bench --bench core_trace`: build time and Mrays/s of the tracing core on the
-//! generated 1M-triangle terrain, coherent, incoherent and hit-heavy coherent rays (medians
-//! of 5 runs).
+//! generated 1M-triangle terrain, coherent, incoherent and hit-heavy coherent rays, through
+//! the queries each product path makes (medians of 5 runs).
 //! The same figures come from `propsim bench trace`, which also takes your own mesh and rays.
 
 use std::time::Instant;
 
 use propsim::cli::bench_trace::{
-    coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, timed_builds, trace_figures,
+    FIGURE_LEGEND, coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, timed_builds, trace_figures,
 };
 
 fn main() {
@@ -14,6 +14,7 @@ fn main() {
     let (accel, builds) = timed_builds(&mesh, 3, propsim::core::BuildQuality::default());
     println!("terrain {} triangles, {} threads", mesh.triangle_count(), rayon::current_num_threads());
     println!("build: {:.3} s (median of 3)", median(builds));
+    println!("{FIGURE_LEGEND}");
     for name in ["coherent", "incoherent", "hit-heavy"] {
         // One set in memory at a time.
         let rays = match name {
@@ -24,8 +25,9 @@ fn main() {
         let t = Instant::now();
         let f = trace_figures(&accel, &rays, 5);
         println!(
-            "{name}: closest hit {:.2} Mrays/s, occlusion {:.2} Mrays/s (medians of 5; wall {:.2} s), checksum {:#018x}",
-            f.closest_mrays_s,
+            "{name}: render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s (medians of 5; wall {:.2} s), checksum {:#018x}",
+            f.render_mrays_s,
+            f.launcher_mrays_s,
             f.occlusion_mrays_s,
             t.elapsed().as_secs_f64(),
             f.checksum

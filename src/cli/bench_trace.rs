@@ -7,10 +7,12 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
+use crate::core::launcher::LAUNCH_BLOCK;
 use crate::core::rng::{stream, uniform};
 use crate::core::sampling::uniform_sphere;
-use crate::core::{Accel, BuildQuality, Ray, TriangleMesh};
+use crate::core::{Accel, BuildQuality, Hit, Ray, TriangleMesh};
 use crate::scene::obj::load_obj;
 
 #[derive(Args, Debug)]
@@ -194,9 +196,16 @@ pub fn timed_builds(mesh: &TriangleMesh, count: usize, quality: BuildQuality) ->
     (accel, builds)
 }
 
-/// Result of tracing one ray set.
+/// Result of tracing one ray set through the queries the products make, each timed alone.
 pub struct TraceFigures {
-    pub closest_mrays_s: f64,
+    /// `propsim render`'s rays (camera rays, path bounces): one closest-hit query a ray
+    /// ([`crate::core::MeshBvh::closest_triangle`]), rays spread over the threads.
+    pub render_mrays_s: f64,
+    /// The acoustic and radio launcher's bounces: [`Accel::closest_hits_into`] on blocks of
+    /// [`LAUNCH_BLOCK`] rays (coherent runs in groups, the rest as streams, on large trees).
+    pub launcher_mrays_s: f64,
+    /// Shadow rays of `propsim render` and the acoustic diffuse rain: one
+    /// [`Accel::occluded`] query a ray.
     pub occlusion_mrays_s: f64,
     pub hits: usize,
     pub occluded: usize,
@@ -204,27 +213,39 @@ pub struct TraceFigures {
     pub checksum: u64,
 }
 
-/// Traces `rays` `repeat` times for closest hits and for occlusion, reporting medians.
+/// What [`trace_figures`] prints for each set, in order: which product path each figure is.
+pub const FIGURE_LEGEND: &str = "per set, Mrays/s: render = `propsim render`'s closest hits (single-ray queries); \
+launcher = acoustic/rf launcher bounces (closest_hits_into, 1024-ray blocks); \
+occlusion = render shadow rays and acoustic diffuse rain (single-ray queries)";
+
+/// Traces `rays` `repeat` times through each product path's query, reporting medians.
 pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures {
-    let mut closest_s = Vec::new();
-    let mut occl_s = Vec::new();
+    let (mut render_s, mut launcher_s, mut occl_s) = (Vec::new(), Vec::new(), Vec::new());
     let mut checksum = 0u64;
     let mut hits = 0;
     let mut occluded = 0;
+    let mut launched: Vec<Option<Hit>> = vec![None; rays.len()];
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
-        let tri = accel.closest_triangles(rays);
-        closest_s.push(t.elapsed().as_secs_f64());
+        let tri: Vec<Option<(u32, f32)>> = rays.par_iter().map(|r| accel.mesh.closest_triangle(r)).collect();
+        render_s.push(t.elapsed().as_secs_f64());
         checksum = tri.iter().fold(0u64, |acc, h| acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1)));
         hits = tri.iter().filter(|h| h.is_some()).count();
         let t = Instant::now();
-        let occ = accel.occluded_batch(rays);
+        launched
+            .par_chunks_mut(LAUNCH_BLOCK)
+            .zip(rays.par_chunks(LAUNCH_BLOCK))
+            .for_each(|(out, block)| accel.closest_hits_into(block, out));
+        launcher_s.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let occ: Vec<bool> = rays.par_iter().map(|r| accel.occluded(r)).collect();
         occl_s.push(t.elapsed().as_secs_f64());
         occluded = occ.iter().filter(|&&o| o).count();
     }
     let n = rays.len() as f64;
     TraceFigures {
-        closest_mrays_s: n / median(closest_s) / 1e6,
+        render_mrays_s: n / median(render_s) / 1e6,
+        launcher_mrays_s: n / median(launcher_s) / 1e6,
         occlusion_mrays_s: n / median(occl_s) / 1e6,
         hits,
         occluded,
@@ -311,12 +332,14 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
         accel.mesh.memory_bytes() as f64 / 1e6
     );
     let sets = sets.unwrap_or_else(generated);
+    println!("{FIGURE_LEGEND}");
     for (name, rays) in &sets {
         let f = trace_figures(&accel, rays, args.repeat);
         println!(
-            "{name:<12} {} rays: closest hit {:.2} Mrays/s, occlusion {:.2} Mrays/s, hits {}, occluded {}, checksum {:#018x}",
+            "{name:<12} {} rays: render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}, checksum {:#018x}",
             rays.len(),
-            f.closest_mrays_s,
+            f.render_mrays_s,
+            f.launcher_mrays_s,
             f.occlusion_mrays_s,
             f.hits,
             f.occluded,

@@ -25,7 +25,6 @@ use super::hit::{Hit, PrimitiveKind};
 use super::leaf::{LeafRay, LeafTriangles};
 use super::mesh::TriangleMesh;
 use super::ray::Ray;
-use super::ray_order::order_in_tiles;
 use super::sphere::Sphere;
 use super::traverse::prefetch;
 use super::traverse::{AnyLeaves, ClosestLeaves, GROUP_WIDTH, NodeRay, Traverser, leaf_ranges};
@@ -284,20 +283,11 @@ impl MeshBvh {
         self.traverser.any(&self.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
-    /// [`split_coherent`], the grouped rays then regrouped into tiles when they come in
-    /// scanline order ([`order_in_tiles`]). On the 1M-triangle benchmark's scanline camera
-    /// rays (alternating runs, Mrays/s closest hit / occlusion): 1 thread 15.7 / 20.5 before,
-    /// 17.6 / 22.6 after; 2 threads 28.6 / 38.1 before, 33.8 / 40.0 after.
-    fn split_and_order(&self, rays: &[Ray]) -> (Vec<u32>, Vec<u32>) {
-        let (grouped, alone) = split_coherent(rays, self.size_m);
-        (order_in_tiles(rays, grouped, self.size_m), alone)
-    }
-
     /// Closest hits of many rays, coherent groups walking the tree together and the others as a
     /// stream ([`split_coherent`]):
     /// `out(i, lane)` gets ray `i`'s closest leaf lane.
     fn closest_lanes_stream(&self, rays: &[Ray], mut out: impl FnMut(usize, Option<ClosestLane>)) {
-        let (grouped, alone) = self.split_and_order(rays);
+        let (grouped, alone) = split_coherent(rays, self.size_m);
         let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.closest_visitor(&rays[i]));
         if grouped.is_empty() {
             // All incoherent: one stream, without the index list.
@@ -320,17 +310,6 @@ impl MeshBvh {
         }
     }
 
-    /// [`MeshBvh::closest_triangle`] of every ray, in groups and a stream, into `out`.
-    pub fn closest_triangles_into(&self, rays: &[Ray], out: &mut [Option<(u32, f32)>]) {
-        if !self.traverser.streams() {
-            out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.closest_triangle(r));
-            return;
-        }
-        self.closest_lanes_stream(rays, |i, best| {
-            out[i] = best.map(|c| (self.mesh_index[(c.first + c.lane) as usize], c.t));
-        });
-    }
-
     /// [`MeshBvh::closest_hit`] of every ray, in groups and a stream, into `out`.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         if !self.traverser.streams() {
@@ -340,35 +319,6 @@ impl MeshBvh {
         self.closest_lanes_stream(rays, |i, best| {
             out[i] = best.map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, &rays[i]));
         });
-    }
-
-    /// [`MeshBvh::occluded`] of every ray, in groups and a stream, into `out`.
-    pub fn occluded_into(&self, rays: &[Ray], out: &mut [bool]) {
-        if !self.traverser.streams() {
-            out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.occluded(r));
-            return;
-        }
-        let (grouped, alone) = self.split_and_order(rays);
-        let start = |i: usize| (node_ray(&rays[i]), rays[i].t_max, self.occlusion_visitor(&rays[i]));
-        if grouped.is_empty() {
-            // All incoherent: one stream, without the index list.
-            self.traverser.any_stream(&self.nodes, rays.len(), start, |i, hit| out[i] = hit);
-            return;
-        }
-        self.traverser.any_groups(
-            &self.nodes,
-            grouped.len(),
-            |k| start(grouped[k] as usize),
-            |k, hit| out[grouped[k] as usize] = hit,
-        );
-        if !alone.is_empty() {
-            self.traverser.any_stream(
-                &self.nodes,
-                alone.len(),
-                |k| start(alone[k] as usize),
-                |k, hit| out[alone[k] as usize] = hit,
-            );
-        }
     }
 
     /// Calls `f` for every triangle hit on the ray, in no particular order.
@@ -582,10 +532,6 @@ pub struct Accel {
     pub spheres: SphereSet,
 }
 
-/// Rays per rayon task in the batch queries: large enough to amortise scheduling, small
-/// enough to balance two to many cores.
-const BATCH_CHUNK: usize = 4096;
-
 impl Accel {
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
         Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres) }
@@ -609,12 +555,6 @@ impl Accel {
         self.mesh.occluded(ray) || !self.spheres.is_empty() && self.spheres.occluded(ray)
     }
 
-    /// Closest hits of many rays in parallel; the result is in input order whatever the
-    /// thread count.
-    pub fn closest_hits(&self, rays: &[Ray]) -> Vec<Option<Hit>> {
-        chunked(rays, |r, o| self.closest_hits_into(r, o))
-    }
-
     /// [`Accel::closest_hit`] of every ray into `out`, on this thread: the mesh's batch query
     /// (coherent groups and streams on large trees, the same code `propsim bench trace`
     /// measures), then the spheres up to each triangle hit. The launcher traces its blocks
@@ -634,33 +574,6 @@ impl Accel {
             }
         }
     }
-
-    /// Closest triangle (mesh index, distance) of many rays in parallel, in input order: the
-    /// lean query for benchmarks and launchers that look up the rest themselves.
-    pub fn closest_triangles(&self, rays: &[Ray]) -> Vec<Option<(u32, f32)>> {
-        chunked(rays, |r, o| self.mesh.closest_triangles_into(r, o))
-    }
-
-    /// Occlusion of many segments in parallel, in input order.
-    pub fn occluded_batch(&self, rays: &[Ray]) -> Vec<bool> {
-        let mut out = chunked(rays, |r, o| self.mesh.occluded_into(r, o));
-        if !self.spheres.is_empty() {
-            out.par_iter_mut().zip(rays).for_each(|(o, r)| *o = *o || self.spheres.occluded(r));
-        }
-        out
-    }
-}
-
-/// Results of `f(chunk, out)` over fixed chunks of the rays, in parallel, in input order:
-/// each chunk is traced as coherent groups and one stream ([`split_coherent`]), the groups
-/// regrouped into tiles when the chunk's runs form image rows ([`order_in_tiles`]). (Sorting
-/// rays into a coherent order first, by direction octant and a Morton curve over the
-/// origins, was measured slower on the 1M-triangle benchmark: the sort cost more than it
-/// saved.)
-fn chunked<T: Send + Clone + Default>(rays: &[Ray], f: impl Fn(&[Ray], &mut [T]) + Sync) -> Vec<T> {
-    let mut out = vec![T::default(); rays.len()];
-    out.par_chunks_mut(BATCH_CHUNK).zip(rays.par_chunks(BATCH_CHUNK)).for_each(|(o, r)| f(r, o));
-    out
 }
 
 /// Directions of a coherent group differ by at most this much in each component.
@@ -670,9 +583,9 @@ const COHERENT_DIRECTION_SPREAD: f32 = 0.25;
 const COHERENT_ORIGIN_SPREAD: f32 = 1.0 / 16.0;
 
 /// Splits a batch into the rays of coherent groups (runs of [`GROUP_WIDTH`] consecutive rays
-/// with nearly parallel directions and nearby origins, judged by four of them, such as the camera rays of a row of
-/// pixels), traced group by group ([`Traverser::closest_groups`], [`Traverser::any_groups`]),
-/// and the others, traced as a stream of single rays. Measured on the 1M-triangle benchmark
+/// with nearly parallel directions and nearby origins, judged by four of them, such as the
+/// polar-cap rays of a launcher's Fibonacci lattice), traced group by group
+/// ([`Traverser::closest_groups`]), and the others, traced as a stream of single rays. Measured on the 1M-triangle benchmark
 /// (2 threads, Mrays/s closest hit / occlusion, 3 alternating rounds): on the coherent rays
 /// that hit, groups 9.0 / 11.6 against 6.8 / 8.6 for streams; on incoherent rays, where
 /// groups share hardly any node, groups were half as fast (occlusion 5.4 against 10.8).
@@ -882,45 +795,24 @@ mod tests {
         let (grouped, alone) = split_coherent(&rays, size_m);
         assert!(grouped.iter().all(|&i| i as usize >= random) && grouped.len() == rays.len() - random);
         assert!(alone.iter().all(|&i| (i as usize) < random));
-        // The camera rays come in scanline order: their groups are regrouped into 8 x 4 tiles.
-        let tiled = order_in_tiles(&rays, grouped, size_m);
-        for group in tiled.chunks(GROUP_WIDTH) {
-            let pixel = |i: u32| {
-                ((i as usize - random) / 4096, (i as usize - random) % 64, (i as usize - random) % 4096 / 64)
-            };
-            let (image, col, row) = pixel(group[0]);
-            assert!(group.iter().all(|&i| {
-                let (e, c, r) = pixel(i);
-                e == image && c / 8 == col / 8 && r / 4 == row / 4
-            }));
-        }
         for bvh in [portable, simd] {
-            let mut triangles = vec![None; rays.len()];
             let mut hits = vec![None; rays.len()];
-            let mut blocked = vec![false; rays.len()];
-            bvh.closest_triangles_into(&rays, &mut triangles);
             bvh.closest_hits_into(&rays, &mut hits);
-            bvh.occluded_into(&rays, &mut blocked);
             // The same distance bit for bit; the triangle may differ only on an exact tie
             // (a ray through a shared edge), which streams and single rays may break apart.
             let mut ties = 0;
             for (i, ray) in rays.iter().enumerate() {
                 let single = portable.closest_triangle(ray);
-                assert_eq!(triangles[i].map(|h| h.1), single.map(|h| h.1), "stream ray {i}");
-                ties += usize::from(triangles[i] != single);
                 assert_eq!(hits[i].map(|h| h.t), single.map(|h| h.1), "stream ray {i}");
-                assert_eq!(blocked[i], portable.occluded(ray), "stream ray {i}");
+                ties += usize::from(hits[i].map(|h| h.primitive) != single.map(|h| h.0));
             }
             assert!(ties <= rays.len() / 1000, "{ties} ties");
             // A batch whose last group is partly filled (77 = 2 x 32 + 13 camera rays).
             let part = &rays[random + 100..random + 177];
-            let mut triangles = vec![None; part.len()];
-            let mut blocked = vec![false; part.len()];
-            bvh.closest_triangles_into(part, &mut triangles);
-            bvh.occluded_into(part, &mut blocked);
+            let mut hits = vec![None; part.len()];
+            bvh.closest_hits_into(part, &mut hits);
             for (i, ray) in part.iter().enumerate() {
-                assert_eq!(triangles[i].map(|h| h.1), portable.closest_triangle(ray).map(|h| h.1), "ray {i}");
-                assert_eq!(blocked[i], portable.occluded(ray), "ray {i}");
+                assert_eq!(hits[i].map(|h| h.t), portable.closest_triangle(ray).map(|h| h.1), "ray {i}");
             }
         }
         for k in 0..20_000u64 {

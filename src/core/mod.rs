@@ -13,7 +13,6 @@ pub mod mesh;
 #[allow(unsafe_code)]
 pub mod queries;
 pub mod ray;
-pub(crate) mod ray_order;
 pub mod rng;
 pub mod sampling;
 pub mod share;

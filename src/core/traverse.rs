@@ -595,57 +595,9 @@ impl Traverser {
             Isa::Avx2 | Isa::Avx512 => unsafe { closest_stream_avx2(nodes, count, start, finish, stacks) },
         })
     }
-
-    /// Any-hit traversal of rays `0..count` as a stream; `finish(i, hit)` gets each answer.
-    pub fn any_stream<N: WideBvhNode, V: AnyLeaves>(
-        &self,
-        nodes: &[N],
-        count: usize,
-        mut start: impl FnMut(usize) -> (NodeRay, f32, V),
-        mut finish: impl FnMut(usize, bool),
-    ) {
-        if nodes.is_empty() {
-            (0..count).for_each(|i| finish(i, false));
-            return;
-        }
-        if !self.stream {
-            for i in 0..count {
-                let (ray, t_max, mut visitor) = start(i);
-                finish(i, self.any(nodes, &ray, t_max, &mut visitor));
-            }
-            return;
-        }
-        self.with_stacks(|stacks| match self.isa {
-            Isa::Scalar => any_stream_loop::<ScalarTest, N, V>(nodes, count, start, finish, stacks),
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => unsafe { any_stream_avx(nodes, count, start, finish, stacks) },
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2, FMA,
-            // BMI1 and POPCNT.
-            Isa::Avx2 | Isa::Avx512 => unsafe { any_stream_avx2(nodes, count, start, finish, stacks) },
-        })
-    }
 }
 
 impl Traverser {
-    /// Any-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
-    /// each group walking the tree once ([`group`]); `finish(i, hit)` gets each answer, the
-    /// same as [`Traverser::any`]'s.
-    pub fn any_groups<V: AnyLeaves>(
-        &self,
-        nodes: &[CwBvhNode],
-        count: usize,
-        start: impl FnMut(usize) -> (NodeRay, f32, V),
-        mut finish: impl FnMut(usize, bool),
-    ) {
-        if nodes.is_empty() {
-            (0..count).for_each(|i| finish(i, false));
-            return;
-        }
-        self.walk_groups::<group::AnyHit, V>(nodes, count, start, |g| g.answers(&mut finish));
-    }
-
     /// Closest-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive
     /// rays ([`group`]): `start(i)` gives ray `i`'s node constants, distance limit and leaf
     /// test, and `finish(i, leaves)` receives the leaf test back.
@@ -660,11 +612,11 @@ impl Traverser {
             (0..count).for_each(|i| finish(i, start(i).2));
             return;
         }
-        self.walk_groups::<group::ClosestHit, V>(nodes, count, start, |g| g.leaf_tests(&mut finish));
+        self.walk_groups::<V>(nodes, count, start, |g| g.leaf_tests(&mut finish));
     }
 
-    /// The group walk `W` over `nodes` with this traversal's instruction set.
-    fn walk_groups<W: group::Walk<V>, V>(
+    /// The closest-hit group walk over `nodes` with this traversal's instruction set.
+    fn walk_groups<V: ClosestLeaves>(
         &self,
         nodes: &[CwBvhNode],
         count: usize,
@@ -675,16 +627,14 @@ impl Traverser {
             std::array::from_fn(|_| group::Group::new(self.stack_len));
         let g = &mut groups;
         match self.isa {
-            Isa::Scalar => {
-                group::groups_loop::<group::EachRay<ScalarTest>, W, V>(nodes, count, start, done, g)
-            }
+            Isa::Scalar => group::groups_loop::<group::EachRay<ScalarTest>, V>(nodes, count, start, done, g),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
-            Isa::Avx => unsafe { groups_avx::<W, V>(nodes, count, start, done, g) },
+            Isa::Avx => unsafe { groups_avx::<V>(nodes, count, start, done, g) },
             #[cfg(target_arch = "x86_64")]
             // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
             // FMA, BMI1 and POPCNT.
-            Isa::Avx2 | Isa::Avx512 => unsafe { groups_avx2::<W, V>(nodes, count, start, done, g) },
+            Isa::Avx2 | Isa::Avx512 => unsafe { groups_avx2::<V>(nodes, count, start, done, g) },
         }
     }
 }
@@ -694,14 +644,14 @@ macro_rules! group_entry_point {
     ($features:literal, $test:ty, $name:ident) => {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
-        fn $name<W: group::Walk<V>, V>(
+        fn $name<V: ClosestLeaves>(
             nodes: &[CwBvhNode],
             count: usize,
             start: impl FnMut(usize) -> (NodeRay, f32, V),
             done: impl FnMut(&mut group::Group<V>),
             groups: &mut [group::Group<V>; group::GROUPS_IN_FLIGHT],
         ) {
-            group::groups_loop::<$test, W, V>(nodes, count, start, done, groups)
+            group::groups_loop::<$test, V>(nodes, count, start, done, groups)
         }
     };
 }
@@ -745,10 +695,10 @@ impl Traverser {
     }
 }
 
-/// The traversals (single rays and streams, closest and any hit) compiled for one
+/// The traversals (single rays, closest and any hit, and closest-hit streams) compiled for one
 /// instruction set: `target_feature` entry points around the generic loops.
 macro_rules! entry_points {
-    ($features:literal, $test:ty, $closest:ident, $any:ident, $closest_stream:ident, $any_stream:ident) => {
+    ($features:literal, $test:ty, $closest:ident, $any:ident, $closest_stream:ident) => {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $features)]
         fn $closest<N: WideBvhNode>(
@@ -784,37 +734,11 @@ macro_rules! entry_points {
         ) {
             closest_stream_loop::<$test, N, V>(nodes, count, start, finish, stacks);
         }
-
-        #[cfg(target_arch = "x86_64")]
-        #[target_feature(enable = $features)]
-        fn $any_stream<N: WideBvhNode, V: AnyLeaves>(
-            nodes: &[N],
-            count: usize,
-            start: impl FnMut(usize) -> (NodeRay, f32, V),
-            finish: impl FnMut(usize, bool),
-            stacks: &mut [Stack<'_>; STREAM_WIDTH],
-        ) {
-            any_stream_loop::<$test, N, V>(nodes, count, start, finish, stacks);
-        }
     };
 }
 
-entry_points!(
-    "avx,fma,sse4.1,popcnt",
-    avx::AvxTest<false>,
-    closest_avx,
-    any_avx,
-    closest_stream_avx,
-    any_stream_avx
-);
-entry_points!(
-    "avx2,fma,bmi1,popcnt",
-    avx::AvxTest<true>,
-    closest_avx2,
-    any_avx2,
-    closest_stream_avx2,
-    any_stream_avx2
-);
+entry_points!("avx,fma,sse4.1,popcnt", avx::AvxTest<false>, closest_avx, any_avx, closest_stream_avx);
+entry_points!("avx2,fma,bmi1,popcnt", avx::AvxTest<true>, closest_avx2, any_avx2, closest_stream_avx2);
 
 /// Prefetches the leaves and the internal children among the `hits` of `node`, so that their
 /// loads overlap the leaf tests.
@@ -975,45 +899,6 @@ fn prefetch_item<N: WideBvhNode>(nodes: &[N], id: u32, leaf: impl Fn(u32, u32)) 
         leaf(first, count);
     } else {
         prefetch_node(nodes, id);
-    }
-}
-
-/// One step of a stream's any-hit traversal: tests the leaf or visits the node `c.current`
-/// (its hits go on the stack, leaves on top), then moves to the next item, which the stream
-/// prefetches while it steps the other rays. Returns `Some(found)` when the ray is done.
-#[inline(always)]
-fn any_step<T: NodeTest, N: WideBvhNode>(
-    nodes: &[N],
-    ray: &NodeRay,
-    c: &mut Cursor,
-    visitor: &mut impl AnyLeaves,
-    stack: &mut Stack<'_>,
-) -> Option<bool> {
-    if c.current & LEAF_FLAG != 0 {
-        let (first, count) = leaf_of(c.current);
-        if visitor.test(first, count) {
-            return Some(true);
-        }
-    } else {
-        let node = &nodes[c.current as usize];
-        let (hits, _) = T::hits(node, ray, c.t_max);
-        let imask = node.inner_mask();
-        // Nodes below leaves on the stack: leaves first, for an early exit.
-        for part in [hits & imask, hits & !imask] {
-            let mut m = part;
-            while m != 0 {
-                let slot = m.trailing_zeros() as usize;
-                m &= m - 1;
-                stack.push(item_id(node, imask, slot), 0.0);
-            }
-        }
-    }
-    match stack.pop() {
-        None => Some(false),
-        Some((id, _)) => {
-            c.current = id;
-            None
-        }
     }
 }
 
@@ -1187,37 +1072,6 @@ fn closest_stream_loop<T: NodeTest, N: WideBvhNode, V: ClosestLeaves>(
                 prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count));
             } else if let Some((i, _, _, visitor)) = lane.take() {
                 finish(i, visitor);
-            }
-        }
-        if !busy {
-            return;
-        }
-    }
-}
-
-/// [`closest_stream_loop`] for any-hit queries; `finish` gets whether the ray hit.
-#[inline(always)]
-fn any_stream_loop<T: NodeTest, N: WideBvhNode, V: AnyLeaves>(
-    nodes: &[N],
-    count: usize,
-    mut start: impl FnMut(usize) -> (NodeRay, f32, V),
-    mut finish: impl FnMut(usize, bool),
-    stacks: &mut [Stack<'_>; STREAM_WIDTH],
-) {
-    let mut lanes: [Option<InFlight<V>>; STREAM_WIDTH] = std::array::from_fn(|_| None);
-    let mut next = 0;
-    loop {
-        let mut busy = false;
-        for (lane, stack) in lanes.iter_mut().zip(stacks.iter_mut()) {
-            refill(lane, stack, &mut next, count, &mut start);
-            let Some((i, ray, cursor, visitor)) = lane else { continue };
-            busy = true;
-            match any_step::<T, N>(nodes, ray, cursor, visitor, stack) {
-                None => prefetch_item(nodes, cursor.current, |first, count| visitor.prefetch(first, count)),
-                Some(found) => {
-                    finish(*i, found);
-                    *lane = None;
-                }
             }
         }
         if !busy {

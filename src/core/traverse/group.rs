@@ -1,27 +1,25 @@
-//! Traversal of a group of up to [`GROUP_WIDTH`] rays at once: one walk of the tree in
-//! which every stack entry carries the mask of rays still to visit it (the masked ray
+//! Closest-hit traversal of a group of up to [`GROUP_WIDTH`] rays at once: one walk of the
+//! tree in which every stack entry carries the mask of rays still to visit it (the masked ray
 //! streams of Embree, after Tsakok 2009 and Fuetterling et al. 2015). A node is fetched once
 //! for all the rays that reach it and each of them tests its eight boxes with the single-ray
-//! node test, so a coherent group (camera rays, or shadow rays of neighbouring pixels) shares
-//! the node loads and the stack work that a ray alone pays for by itself.
+//! node test, so a coherent group shares the node loads and the stack work that a ray alone
+//! pays for by itself. The launcher's batches send their coherent runs here (on large trees:
+//! the rays of a Fibonacci lattice's polar caps, whose consecutive directions are close).
 //! [`GROUPS_IN_FLIGHT`] groups step in turn, so that one group's cache misses overlap the
 //! others' work, as a stream of single rays does.
 //!
-//! - Any hit: a ray leaves the group at its first hit. Its answer is that of the single-ray
-//!   query: it is occluded exactly when a triangle in a leaf whose box it enters is hit,
-//!   whatever the order of the walk.
-//! - Closest hit: children are visited nearest first by the smallest entry distance of the
-//!   group's rays, and each ray tests boxes and leaves against its own closest hit so far.
-//!   Its closest distance is that of the single-ray query, bit for bit; on an exact tie (a
-//!   ray through an edge shared by two triangles) the triangle may be the other one.
+//! Children are visited nearest first by the smallest entry distance of the group's rays, and
+//! each ray tests boxes and leaves against its own closest hit so far. Its closest distance
+//! is that of the single-ray query, bit for bit; on an exact tie (a ray through an edge
+//! shared by two triangles) the triangle may be the other one.
 
 use std::marker::PhantomData;
 
 use obvhs::cwbvh::node::CwBvhNode;
 
 use super::{
-    AnyLeaves, ClosestLeaves, FIRST_ROW, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, far_to_near, item_id,
-    leaf_of, node_frame, prefetch_node,
+    ClosestLeaves, FIRST_ROW, LEAF_FLAG, NodeRay, NodeTest, WideBvhNode, far_to_near, item_id, leaf_of,
+    node_frame, prefetch_node,
 };
 
 /// Rays in a group: one bit each in a stack entry's mask.
@@ -87,21 +85,18 @@ impl<T: NodeTest> GroupTest for EachRay<T> {
 
 /// Groups a thread keeps in flight: while one waits for its next node or leaf from memory,
 /// the others work. With tiled groups and leaves prefetched as they are pushed, 8 beat 4 by
-/// 12 % / 16 % (closest hit / occlusion, coherent benchmark rays, 1 thread, paired runs), and
+/// 12 % / 16 % (closest hit / occlusion, since removed, coherent benchmark rays, 1 thread, paired runs), and
 /// 6 and 12 were slower than 8.
 pub const GROUPS_IN_FLIGHT: usize = 8;
 
-/// One group of rays in flight: its rays, their distance limits (the closest hits so far,
-/// for closest-hit walks) and leaf tests, the rays still looking (`active`) and those that
-/// hit (`found`, for any-hit walks), the item to visit next with the rays that visit it, and
-/// its stack of (item, ray mask, smallest entry distance) entries.
+/// One group of rays in flight: its rays, their distance limits (the closest hits so far)
+/// and leaf tests, the item to visit next with the rays that visit it, and its stack of
+/// (item, ray mask, smallest entry distance) entries.
 pub(super) struct Group<V> {
     first: usize,
     rays: Vec<NodeRay>,
     t_max: Vec<f32>,
     visitors: Vec<V>,
-    active: u32,
-    found: u32,
     current: u32,
     mask: u32,
     stack: Vec<(u32, u32, f32)>,
@@ -114,8 +109,6 @@ impl<V> Group<V> {
             rays: Vec::with_capacity(GROUP_WIDTH),
             t_max: Vec::with_capacity(GROUP_WIDTH),
             visitors: Vec::with_capacity(GROUP_WIDTH),
-            active: 0,
-            found: 0,
             current: 0,
             mask: 0,
             stack: Vec::with_capacity(stack_len),
@@ -132,56 +125,6 @@ impl<V> Group<V> {
             keep |= u32::from(t <= self.t_max[r]) << r;
         }
         keep
-    }
-}
-
-/// One step of a group's any-hit walk: tests the leaf or visits the node `g.current` for the
-/// rays of `g.mask` (a node's hit children go on the stack with the mask of rays that enter
-/// each, leaves on top), then pops the next item that a ray still looking visits. Returns
-/// false when the group is done.
-#[inline(always)]
-fn any_group_step<G: GroupTest, V: AnyLeaves>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
-    if g.current & LEAF_FLAG != 0 {
-        let (first, count) = leaf_of(g.current);
-        let mut m = g.mask;
-        while m != 0 {
-            let r = m.trailing_zeros() as usize;
-            m &= m - 1;
-            // Without a branch: whether a ray hits is not predictable.
-            let hit = u32::from(g.visitors[r].test(first, count)) << r;
-            g.found |= hit;
-            g.active &= !hit;
-        }
-        if g.active == 0 {
-            return false;
-        }
-    } else {
-        let node = &nodes[g.current as usize];
-        let (masks, _, any) = G::hits(node, &g.rays, &g.t_max, g.mask);
-        let imask = node.inner_mask();
-        // Nodes below leaves on the stack: leaves first, for an early exit.
-        for part in [any & imask, any & !imask] {
-            let mut m = part;
-            while m != 0 {
-                let slot = m.trailing_zeros() as usize;
-                m &= m - 1;
-                let id = item_id(node, imask, slot);
-                // A leaf is loaded while the groups in flight take their turns, not when it
-                // is popped.
-                if id & LEAF_FLAG != 0 {
-                    let (first, count) = leaf_of(id);
-                    g.visitors[masks[slot].trailing_zeros() as usize].prefetch(first, count);
-                }
-                g.stack.push((id, masks[slot], 0.0));
-            }
-        }
-    }
-    loop {
-        let Some((id, m, _)) = g.stack.pop() else { return false };
-        if m & g.active != 0 {
-            (g.current, g.mask) = (id, m & g.active);
-            return true;
-        }
     }
 }
 
@@ -221,51 +164,6 @@ fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &m
     }
 }
 
-/// What a group walk does: its step, and its leaf prefetch.
-pub(super) trait Walk<V> {
-    /// One step of group `g` ([`any_group_step`], [`closest_group_step`]); false when done.
-    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool;
-    /// A hint that leaf `(first, count)` is tested next.
-    fn prefetch(visitor: &V, first: u32, count: u32);
-}
-
-/// The any-hit walk.
-pub(super) struct AnyHit;
-
-impl<V: AnyLeaves> Walk<V> for AnyHit {
-    #[inline(always)]
-    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
-        any_group_step::<G, V>(nodes, g)
-    }
-
-    #[inline(always)]
-    fn prefetch(visitor: &V, first: u32, count: u32) {
-        visitor.prefetch(first, count);
-    }
-}
-
-/// The closest-hit walk.
-pub(super) struct ClosestHit;
-
-impl<V: ClosestLeaves> Walk<V> for ClosestHit {
-    #[inline(always)]
-    fn step<G: GroupTest>(nodes: &[CwBvhNode], g: &mut Group<V>) -> bool {
-        closest_group_step::<G, V>(nodes, g)
-    }
-
-    #[inline(always)]
-    fn prefetch(visitor: &V, first: u32, count: u32) {
-        visitor.prefetch(first, count);
-    }
-}
-
-impl<V: AnyLeaves> Group<V> {
-    /// Hands each ray's any-hit answer to `finish(i, hit)`.
-    pub(super) fn answers(&self, finish: &mut impl FnMut(usize, bool)) {
-        (0..self.rays.len()).for_each(|r| finish(self.first + r, self.found & (1 << r) != 0));
-    }
-}
-
 impl<V: ClosestLeaves> Group<V> {
     /// Hands each ray's leaf test back to `finish(i, leaves)`.
     pub(super) fn leaf_tests(&mut self, finish: &mut impl FnMut(usize, V)) {
@@ -274,11 +172,11 @@ impl<V: ClosestLeaves> Group<V> {
     }
 }
 
-/// The walk `W` of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
+/// The closest-hit walk of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive rays,
 /// [`GROUPS_IN_FLIGHT`] groups interleaved one step each, the item each group visits next
 /// prefetched when it is chosen; `done` gets each finished group.
 #[inline(always)]
-pub(super) fn groups_loop<G: GroupTest, W: Walk<V>, V>(
+pub(super) fn groups_loop<G: GroupTest, V: ClosestLeaves>(
     nodes: &[CwBvhNode],
     count: usize,
     mut start: impl FnMut(usize) -> (NodeRay, f32, V),
@@ -306,17 +204,17 @@ pub(super) fn groups_loop<G: GroupTest, W: Walk<V>, V>(
                     g.visitors.push(visitor);
                 }
                 g.first = next;
-                g.active = if end - next >= 32 { u32::MAX } else { (1u32 << (end - next)) - 1 };
-                (g.found, g.current, g.mask) = (0, 0, g.active);
+                g.mask = if end - next >= 32 { u32::MAX } else { (1u32 << (end - next)) - 1 };
+                g.current = 0;
                 next = end;
                 *busy = true;
             }
             any_busy = true;
-            if W::step::<G>(nodes, g) {
+            if closest_group_step::<G, V>(nodes, g) {
                 if g.current & LEAF_FLAG != 0 {
                     let r = g.mask.trailing_zeros() as usize;
                     let (first, count) = leaf_of(g.current);
-                    W::prefetch(&g.visitors[r], first, count);
+                    g.visitors[r].prefetch(first, count);
                 } else {
                     prefetch_node(nodes, g.current);
                 }
