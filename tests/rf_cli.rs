@@ -127,6 +127,67 @@ fn bad_inputs_are_one_line_errors() {
         &["cornell_white", "no radio properties"],
     );
     assert_clean_error(&["rf", "no/such/scene.toml"], &["no/such/scene.toml"]);
+    for bad in ["0", "-0.1", "nan", "inf"] {
+        assert_clean_error(&["rf", CANYON, "--wall-thickness-m", bad], &["--wall-thickness-m", "positive"]);
+    }
+    // A material's thickness is checked when the file is read, whether walls transmit or not.
+    let dir = tempfile::tempdir().unwrap();
+    let materials = dir.path().join("thin.toml");
+    std::fs::write(&materials, "[materials.concrete]\nitu = \"concrete\"\nthickness_m = 0\n").unwrap();
+    let m = materials.to_str().unwrap();
+    for extra in [&[][..], &["--no-transmission"][..]] {
+        let mut args = vec!["rf", CANYON, "--materials", m];
+        args.extend(extra);
+        assert_clean_error(&args, &["thin.toml", "concrete", "thickness_m", "positive"]);
+    }
+    assert_clean_error(&["rf", CANYON, "--cfr-points", "64"], &["--cfr-points", "--cfr-bandwidth-mhz"]);
+    assert_clean_error(&["rf", CANYON, "--cfr-bandwidth-mhz", "0"], &["--cfr-bandwidth-mhz", "positive"]);
+    assert_clean_error(
+        &["rf", CANYON, "--cfr-bandwidth-mhz", "20", "--cfr-points", "0"],
+        &["--cfr-points 0", "between 1 and"],
+    );
+}
+
+#[test]
+fn transmission_is_on_by_default_and_the_flags_switch_it() {
+    // The default, `--transmission` (kept, changes nothing) and `--wall-thickness-m 0.1` (the
+    // default thickness) give the same bytes; `--no-transmission` leaves the cells inside the
+    // buildings empty, which transmission reaches.
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "rf",
+            CANYON,
+            "--rays",
+            "100000",
+            "--cell-m",
+            "3",
+            "--no-receivers",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (ok, _, err) = propsim(&args);
+        assert!(ok, "{err}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+        (std::fs::read(out.join("coverage.csv")).unwrap(), json)
+    };
+    let (default, json) = run("default", &[]);
+    assert_eq!(json["config"]["transmission"], true);
+    assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.1);
+    assert_eq!(run("flag", &["--transmission"]).0, default);
+    assert_eq!(run("thick", &["--wall-thickness-m", "0.1"]).0, default);
+    assert_eq!(run("last", &["--no-transmission", "--transmission"]).0, default);
+    let (opaque, json) = run("opaque", &["--no-transmission"]);
+    assert_eq!(json["config"]["transmission"], false);
+    let reached =
+        |csv: &[u8]| String::from_utf8_lossy(csv).lines().skip(1).filter(|l| !l.contains(",,")).count();
+    assert!(reached(&default) > reached(&opaque) + 100, "{} {}", reached(&default), reached(&opaque));
+    let (thick, json) = run("thick2", &["--wall-thickness-m", "0.3"]);
+    assert_ne!(thick, default);
+    assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.3);
 }
 
 #[test]
@@ -136,7 +197,10 @@ fn street_canyon_map_agrees_with_the_exact_paths_at_the_receivers() {
     use propsim::rf::{Overrides, RfConfig, simulate};
     use propsim::scene::{LoadOptions, World, load};
     let world = World::build(load(CANYON.as_ref(), &LoadOptions::default()).unwrap());
-    let o = Overrides { rays: Some(2_000_000), ..Overrides::default() };
+    // The image method finds the reflected paths only, so the map is made with opaque walls
+    // (`--no-transmission`): under the defaults it would also hold the paths through the
+    // buildings, which the exact sum leaves out.
+    let o = Overrides { rays: Some(2_000_000), no_transmission: true, ..Overrides::default() };
     let config = RfConfig::from_scene(&world, &o).unwrap();
     let result = simulate(&world, &config, &|_| {}).unwrap();
     let tx = &result.transmitters[0];

@@ -73,12 +73,23 @@ pub struct RfArgs {
     /// Use ITU-R P.2040 fits outside their frequency ranges.
     #[arg(long)]
     pub extrapolate: bool,
-    /// Walls are thin slabs that also transmit (ITU-R P.2040-3 sec. 2.2.2.2).
-    #[arg(long)]
+    /// Walls are thin slabs that reflect and transmit (ITU-R P.2040-3 sec. 2.2.2.2): the
+    /// default, so this flag changes nothing (kept for older command lines).
+    #[arg(long, overrides_with = "no_transmission")]
     pub transmission: bool,
-    /// Slab thickness for --transmission, m (default 0.2).
+    /// Walls are opaque half-spaces that only reflect.
+    #[arg(long, overrides_with = "transmission")]
+    pub no_transmission: bool,
+    /// Slab thickness of every wall, m (default: each material's thickness_m, else 0.1).
     #[arg(long)]
     pub wall_thickness_m: Option<f64>,
+    /// Write the channel frequency response at the point receivers (cfr.csv) over this
+    /// bandwidth, MHz, centred on the carrier.
+    #[arg(long)]
+    pub cfr_bandwidth_mhz: Option<f64>,
+    /// Frequency points of the channel frequency response (default 256).
+    #[arg(long)]
+    pub cfr_points: Option<u64>,
     /// Extra coherent point receiver X,Y,Z (repeatable).
     #[arg(long = "rx", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub rx: Vec<[f32; 3]>,
@@ -110,8 +121,10 @@ impl RfArgs {
             max_depth: self.max_depth,
             seed: self.seed,
             extrapolate: self.extrapolate,
-            transmission: self.transmission,
+            no_transmission: self.no_transmission,
             wall_thickness_m: self.wall_thickness_m,
+            cfr_bandwidth_mhz: self.cfr_bandwidth_mhz,
+            cfr_points: self.cfr_points,
             receivers: self.rx.clone(),
             no_receivers: self.no_receivers,
         }
