@@ -437,3 +437,109 @@ fn free_space_map_error_by_ray_count() {
         );
     }
 }
+
+/// The angles (azimuth, zenith), degrees, of the unit vector along `d`, by the textbook
+/// spherical coordinates (azimuth from +x towards +y, zenith from +z).
+fn angles(d: DVec3) -> (f64, f64) {
+    let d = d.normalize();
+    (d.y.atan2(d.x).to_degrees(), d.z.acos().to_degrees())
+}
+
+fn assert_angles(got: DVec3, want: DVec3, what: &str) {
+    let (g, w) = (angles(got), angles(want));
+    let (ga, gz) = propsim::rf::receivers::azimuth_zenith_deg(got);
+    // Azimuths compared on the circle (-180 and 180 are one direction).
+    let da = (ga - w.0).rem_euclid(360.0);
+    assert!(da.min(360.0 - da) < 1e-9 && (gz - w.1).abs() < 1e-9, "{what}: {g:?} against {w:?}");
+    assert!(ga > -180.0 && ga <= 180.0 && (0.0..=180.0).contains(&gz), "{what}: {ga} {gz}");
+}
+
+#[test]
+fn two_ray_impulse_response_is_exact() {
+    // Direct and ground-reflected paths from (0, 0, 10) to (r, 0, 1.5): delays L / c with
+    // L1 = sqrt(r^2 + (ht - hr)^2) and L2 = sqrt(r^2 + (ht + hr)^2) (the image source at
+    // (0, 0, -ht)), amplitudes (lambda / 4 pi L) e^{-jkL} times 1 and times the ground's
+    // R_TM (vertical polarisation) or R_TE (horizontal) at the incidence angle (Rappaport
+    // sec. 4.6), for the default slab ground and the half-space one.
+    let mesh = ground(5000.0);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let planes = Planes::of(&mesh);
+    let (ht, hr) = (10.0, 1.5);
+    let tx = DVec3::new(0.0, 0.0, ht);
+    let k = std::f64::consts::TAU / lambda();
+    let a = |l: f64| Complex::cis(-k * l).scale(lambda() / (4.0 * std::f64::consts::PI * l));
+    let close = |g: Complex, w: Complex| (g - w).abs() <= 1e-9 * w.abs();
+    for (physics, coefficients, name) in [
+        (default_physics(), slab_ground as GroundCoefficients, "0.1 m slab"),
+        (half_space_physics(), half_space_ground as GroundCoefficients, "half-space"),
+    ] {
+        for polarization in [Polarization::Vertical, Polarization::Horizontal] {
+            let antenna = Antenna::Isotropic { polarization };
+            for r in [20.0, 57.3, 140.0, 299.0] {
+                let rx = DVec3::new(r, 0.0, hr);
+                let got = coherent_paths(&accel, &planes, &physics, &antenna, tx, rx, 2);
+                let mut p: Vec<_> = got.records.iter().collect();
+                p.sort_by(|x, y| x.delay_s.total_cmp(&y.delay_s));
+                assert_eq!(p.len(), 2, "{name} {r} m");
+                let (l1, l2) = ((r * r + (ht - hr).powi(2)).sqrt(), (r * r + (ht + hr).powi(2)).sqrt());
+                assert!((p[0].delay_s - l1 / C0).abs() <= 1e-14 * l1 / C0, "{name} {r} m direct delay");
+                assert!((p[1].delay_s - l2 / C0).abs() <= 1e-14 * l2 / C0, "{name} {r} m reflected delay");
+                let (r_te, r_tm) = coefficients((ht + hr) / l2);
+                let gamma = if polarization == Polarization::Vertical { r_tm } else { r_te };
+                assert!(close(p[0].amplitude, a(l1)), "{name} {polarization:?} {r} m: {:?}", p[0].amplitude);
+                assert!(
+                    close(p[1].amplitude, a(l2) * gamma),
+                    "{name} {polarization:?} {r} m: {:?} against {:?}",
+                    p[1].amplitude,
+                    a(l2) * gamma
+                );
+                assert!((p[1].gain() - a(l2).norm_sqr() * gamma.norm_sqr()).abs() <= 1e-9 * p[1].gain());
+                assert!(p[0].interactions.is_empty() && p[1].interactions.len() == 1);
+                // Departure towards the receiver and towards the ground point; arrival from
+                // the transmitter and from the ground point (r ht / (ht + hr), 0, 0).
+                let ground_point = DVec3::new(r * ht / (ht + hr), 0.0, 0.0);
+                assert_angles(p[0].departure, rx - tx, "direct departure");
+                assert_angles(p[1].departure, ground_point - tx, "reflected departure");
+                assert_angles(p[0].arrival, tx - rx, "direct arrival");
+                assert_angles(p[1].arrival, ground_point - rx, "reflected arrival");
+                // The frequency response over 100 MHz: the two-ray sum at each offset.
+                for offset in [-50e6, -12.5e6, 0.0, 3.7e6, 50e6] {
+                    let w = |l: f64| Complex::cis(-std::f64::consts::TAU * offset * l / C0);
+                    let want = a(l1) * w(l1) + a(l2) * gamma * w(l2);
+                    let h = propsim::rf::receivers::frequency_response(&got.records, offset);
+                    assert!(close(h, want), "{name} {r} m, {offset} Hz");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_wall_reflection_has_the_image_delay_and_angles() {
+    // A 40 m concrete wall in the plane x = 5; transmitter (0, 0, 1.5). The reflected path
+    // to a receiver is as long as the straight line from the image source (10, 0, 1.5), and
+    // meets the wall where that line crosses x = 5.
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("concrete");
+    let (a, b) = (-20.0, 20.0);
+    mesh.push_quad(Vec3::new(5.0, a, a), Vec3::new(5.0, b, a), Vec3::new(5.0, b, b), Vec3::new(5.0, a, b), s);
+    let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+    let planes = Planes::of(&mesh);
+    let tx = DVec3::new(0.0, 0.0, 1.5);
+    let image = DVec3::new(10.0, 0.0, 1.5);
+    for rx in [DVec3::new(2.0, 3.0, 1.5), DVec3::new(-7.25, -4.5, 2.75), DVec3::new(4.0, 0.0, 1.5)] {
+        for physics in [default_physics(), half_space_physics()] {
+            let got = coherent_paths(&accel, &planes, &physics, &VERTICAL, tx, rx, 3);
+            assert_eq!(got.records.len(), 2, "{rx}");
+            let reflected = got.records.iter().find(|p| !p.interactions.is_empty()).unwrap();
+            let want = image.distance(rx) / C0;
+            assert!((reflected.delay_s - want).abs() <= 1e-14 * want, "{rx}: {} s", reflected.delay_s);
+            let direct = got.records.iter().find(|p| p.interactions.is_empty()).unwrap();
+            assert!((direct.delay_s - tx.distance(rx) / C0).abs() <= 1e-14 * want);
+            let t = (image.x - 5.0) / (image.x - rx.x);
+            let point = image + t * (rx - image);
+            assert_angles(reflected.departure, point - tx, "departure");
+            assert_angles(reflected.arrival, point - rx, "arrival");
+        }
+    }
+}

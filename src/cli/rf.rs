@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use clap::Args;
 
 use crate::dist::Cluster;
-use crate::rf::output::{summary, write_coverage_csv, write_summary_json};
+use crate::rf::output::{summary, write_coverage_csv, write_receiver_outputs, write_summary_json};
 use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
 use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
 use crate::scene::{self, LoadOptions, World};
@@ -144,7 +144,8 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
     Some(super::progress::bar(total, "rays"))
 }
 
-/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`.
+/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`, and with point
+/// receivers `paths.csv`, a `pdp_RECEIVER.png` each and (if asked) `cfr.csv`.
 pub fn write_outputs<'a>(
     out: &std::path::Path,
     scene_name: &str,
@@ -171,7 +172,9 @@ pub fn write_outputs<'a>(
         &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
         png_width,
     )?;
-    let outputs = [&csv, &png, &json].iter().map(|p| p.display().to_string()).collect();
+    let receiver_files = write_receiver_outputs(out, config, result)?;
+    let outputs =
+        [&csv, &png, &json].into_iter().chain(&receiver_files).map(|p| p.display().to_string()).collect();
     let s = summary(scene_name, config, result, outputs);
     write_summary_json(&json, &s)?;
     Ok(s)
@@ -223,6 +226,14 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         );
     }
     say!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    if !config.receivers.is_empty() {
+        let cfr = if config.cfr.is_some() { ", cfr.csv" } else { "" };
+        say!(
+            "wrote paths.csv, {} power-delay profile(s) pdp_*.png{cfr} in {}",
+            config.receivers.len(),
+            args.out.display()
+        );
+    }
     Ok(())
 }
 

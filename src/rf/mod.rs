@@ -145,6 +145,8 @@ pub struct RfResult {
     /// Received power per cell, mW, summed over the transmitters.
     pub rx_power_mw: Vec<f64>,
     pub transmitters: Vec<TransmitterResult>,
+    /// Name of every surface of the scene, by `SurfaceId` (for the paths' interactions).
+    pub surface_names: Vec<String>,
     pub seconds: f64,
 }
 
@@ -265,7 +267,14 @@ pub fn simulate_on(
     if !cluster.is_root() {
         return Ok(None);
     }
-    Ok(Some(RfResult { coverage, rx_power_mw, transmitters, seconds: start.elapsed().as_secs_f64() }))
+    let surface_names = world.scene.surfaces.iter().map(|s| s.name.clone()).collect();
+    Ok(Some(RfResult {
+        coverage,
+        rx_power_mw,
+        transmitters,
+        surface_names,
+        seconds: start.elapsed().as_secs_f64(),
+    }))
 }
 
 /// A point receiver of the coherent mode.
