@@ -78,7 +78,8 @@ impl PathRecord {
 }
 
 /// Azimuth (from +x towards +y, in (-180, 180]) and zenith (from +z, in [0, 180]) of the
-/// unit vector `d`, degrees: the angle convention of Sionna RT and 3GPP TR 38.901 sec. 7.5.
+/// unit vector `d`, degrees: the angle convention of Sionna RT and 3GPP TR 38.901 sec. 7.1
+/// (docs/radio.md, sec. 3).
 pub fn azimuth_zenith_deg(d: DVec3) -> (f64, f64) {
     let azimuth = d.y.atan2(d.x).to_degrees();
     // atan2 gives -180 for y = -0: the same direction as +180.
