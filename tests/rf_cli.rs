@@ -127,6 +127,67 @@ fn bad_inputs_are_one_line_errors() {
         &["cornell_white", "no radio properties"],
     );
     assert_clean_error(&["rf", "no/such/scene.toml"], &["no/such/scene.toml"]);
+    for bad in ["0", "-0.1", "nan", "inf"] {
+        assert_clean_error(&["rf", CANYON, "--wall-thickness-m", bad], &["--wall-thickness-m", "positive"]);
+    }
+    // A material's thickness is checked when the file is read, whether walls transmit or not.
+    let dir = tempfile::tempdir().unwrap();
+    let materials = dir.path().join("thin.toml");
+    std::fs::write(&materials, "[materials.concrete]\nitu = \"concrete\"\nthickness_m = 0\n").unwrap();
+    let m = materials.to_str().unwrap();
+    for extra in [&[][..], &["--no-transmission"][..]] {
+        let mut args = vec!["rf", CANYON, "--materials", m];
+        args.extend(extra);
+        assert_clean_error(&args, &["thin.toml", "concrete", "thickness_m", "positive"]);
+    }
+    assert_clean_error(&["rf", CANYON, "--cfr-points", "64"], &["--cfr-points", "--cfr-bandwidth-mhz"]);
+    assert_clean_error(&["rf", CANYON, "--cfr-bandwidth-mhz", "0"], &["--cfr-bandwidth-mhz", "positive"]);
+    assert_clean_error(
+        &["rf", CANYON, "--cfr-bandwidth-mhz", "20", "--cfr-points", "0"],
+        &["--cfr-points 0", "between 1 and"],
+    );
+}
+
+#[test]
+fn transmission_is_on_by_default_and_the_flags_switch_it() {
+    // The default, `--transmission` (kept, changes nothing) and `--wall-thickness-m 0.1` (the
+    // default thickness) give the same bytes; `--no-transmission` leaves the cells inside the
+    // buildings empty, which transmission reaches.
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args = vec![
+            "rf",
+            CANYON,
+            "--rays",
+            "100000",
+            "--cell-m",
+            "3",
+            "--no-receivers",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend(extra);
+        let (ok, _, err) = propsim(&args);
+        assert!(ok, "{err}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+        (std::fs::read(out.join("coverage.csv")).unwrap(), json)
+    };
+    let (default, json) = run("default", &[]);
+    assert_eq!(json["config"]["transmission"], true);
+    assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.1);
+    assert_eq!(run("flag", &["--transmission"]).0, default);
+    assert_eq!(run("thick", &["--wall-thickness-m", "0.1"]).0, default);
+    assert_eq!(run("last", &["--no-transmission", "--transmission"]).0, default);
+    let (opaque, json) = run("opaque", &["--no-transmission"]);
+    assert_eq!(json["config"]["transmission"], false);
+    let reached =
+        |csv: &[u8]| String::from_utf8_lossy(csv).lines().skip(1).filter(|l| !l.contains(",,")).count();
+    assert!(reached(&default) > reached(&opaque) + 100, "{} {}", reached(&default), reached(&opaque));
+    let (thick, json) = run("thick2", &["--wall-thickness-m", "0.3"]);
+    assert_ne!(thick, default);
+    assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.3);
 }
 
 #[test]
@@ -136,7 +197,10 @@ fn street_canyon_map_agrees_with_the_exact_paths_at_the_receivers() {
     use propsim::rf::{Overrides, RfConfig, simulate};
     use propsim::scene::{LoadOptions, World, load};
     let world = World::build(load(CANYON.as_ref(), &LoadOptions::default()).unwrap());
-    let o = Overrides { rays: Some(2_000_000), ..Overrides::default() };
+    // The image method finds the reflected paths only, so the map is made with opaque walls
+    // (`--no-transmission`): under the defaults it would also hold the paths through the
+    // buildings, which the exact sum leaves out.
+    let o = Overrides { rays: Some(2_000_000), no_transmission: true, ..Overrides::default() };
     let config = RfConfig::from_scene(&world, &o).unwrap();
     let result = simulate(&world, &config, &|_| {}).unwrap();
     let tx = &result.transmitters[0];
@@ -151,4 +215,119 @@ fn street_canyon_map_agrees_with_the_exact_paths_at_the_receivers() {
         assert!(paths.line_of_sight && paths.paths >= 4);
         assert!((grid_db - exact_db).abs() < 1.0, "{}: {grid_db} vs {exact_db}", r.name);
     }
+}
+
+#[test]
+fn point_receivers_get_paths_power_delay_profiles_and_frequency_responses() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("cir");
+    let (ok, stdout, err) = propsim(&[
+        "rf",
+        CANYON,
+        "--rays",
+        "20000",
+        "--cell-m",
+        "4",
+        "--cfr-bandwidth-mhz",
+        "20",
+        "--cfr-points",
+        "64",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("paths.csv"), "{stdout}");
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+    let receivers = json["receivers"].as_array().unwrap();
+    assert_eq!(receivers.len(), 3);
+    let text = std::fs::read_to_string(out.join("paths.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some(
+            "transmitter,receiver,path,delay_s,amplitude_re,amplitude_im,gain_db,aod_azimuth_deg,\
+             aod_zenith_deg,aoa_azimuth_deg,aoa_zenith_deg,interactions"
+        )
+    );
+    let rows: Vec<Vec<String>> = lines.map(|l| l.split(',').map(String::from).collect()).collect();
+    let num = |s: &str| s.parse::<f64>().unwrap();
+    for rx in receivers {
+        let name = rx["name"].as_str().unwrap();
+        let mine: Vec<&Vec<String>> = rows.iter().filter(|r| r[1] == name).collect();
+        assert_eq!(mine.len() as u64, rx["paths"].as_u64().unwrap(), "{name}");
+        // (The receiver behind B01 has no specular path: its rows are none, its response 0.)
+        assert_eq!(mine.is_empty(), name == "P_behind_B01", "{name}");
+        let mut last = 0.0;
+        for (k, r) in mine.iter().enumerate() {
+            assert_eq!((r.len(), r[0].as_str(), r[2].parse::<usize>().unwrap()), (12, "TX1", k));
+            let delay = num(&r[3]);
+            assert!(delay >= last && delay > 0.0, "{name}: delays by increasing value");
+            last = delay;
+            let (re, im) = (num(&r[4]), num(&r[5]));
+            assert!((num(&r[6]) - 10.0 * (re * re + im * im).log10()).abs() < 1e-5);
+            assert!(num(&r[7]).abs() <= 180.0 && (0.0..=180.0).contains(&num(&r[8])));
+            assert!(num(&r[9]).abs() <= 180.0 && (0.0..=180.0).contains(&num(&r[10])));
+            let hops = r[11].split(';').count();
+            assert!(
+                r[11] == "LOS" || r[11].split(';').all(|h| h.starts_with("R:")) && hops <= 3,
+                "{}",
+                r[11]
+            );
+        }
+        // The line-of-sight receivers' first path is the direct one, at |rx - tx| / c.
+        if rx["line_of_sight"] == true {
+            let p =
+                rx["position"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect::<Vec<_>>();
+            let d = (p[0].powi(2) + p[1].powi(2) + (p[2] - 10.0).powi(2)).sqrt();
+            assert_eq!(mine[0][11], "LOS");
+            assert!((num(&mine[0][3]) - d / 299_792_458.0).abs() < 1e-6 * num(&mine[0][3]));
+        }
+        let png = std::fs::read(out.join(format!("pdp_{name}.png"))).unwrap();
+        assert_eq!(&png[1..4], b"PNG");
+        // cfr.csv: 64 points over 3.49-3.51 GHz, each the sum of the paths' amplitudes turned
+        // by exp(-j 2 pi (f - f_c) tau).
+        let cfr = std::fs::read_to_string(out.join("cfr.csv")).unwrap();
+        assert!(cfr.starts_with("transmitter,receiver,freq_hz,re,im,gain_db\n"));
+        let points: Vec<Vec<f64>> = cfr
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[1] == name)
+            .map(|f| f[2..5].iter().map(|v| num(v)).collect())
+            .collect();
+        assert_eq!(points.len(), 64);
+        let mean_f = points.iter().map(|p| p[0]).sum::<f64>() / 64.0;
+        assert!((mean_f - 3.5e9).abs() < 1.0 && (points[1][0] - points[0][0] - 20e6 / 64.0).abs() < 1e-3);
+        for p in &points {
+            let (mut re, mut im) = (0.0, 0.0);
+            for r in &mine {
+                let phase = -std::f64::consts::TAU * (p[0] - 3.5e9) * num(&r[3]);
+                let (s, c) = phase.sin_cos();
+                re += num(&r[4]) * c - num(&r[5]) * s;
+                im += num(&r[4]) * s + num(&r[5]) * c;
+            }
+            let scale = (re * re + im * im).sqrt();
+            assert!(
+                (p[1] - re).abs() <= 1e-9 * scale && (p[2] - im).abs() <= 1e-9 * scale,
+                "{name} {}",
+                p[0]
+            );
+        }
+    }
+    // Without receivers there is nothing to write.
+    let bare = dir.path().join("bare");
+    let (ok, _, err) = propsim(&[
+        "rf",
+        CANYON,
+        "--rays",
+        "20000",
+        "--cell-m",
+        "4",
+        "--no-receivers",
+        "--out",
+        bare.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(!bare.join("paths.csv").exists() && bare.join("coverage.csv").exists());
 }

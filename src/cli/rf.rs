@@ -8,7 +8,7 @@ use anyhow::Context as _;
 use clap::Args;
 
 use crate::dist::Cluster;
-use crate::rf::output::{summary, write_coverage_csv, write_summary_json};
+use crate::rf::output::{summary, write_coverage_csv, write_receiver_outputs, write_summary_json};
 use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
 use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
 use crate::scene::{self, LoadOptions, World};
@@ -73,12 +73,23 @@ pub struct RfArgs {
     /// Use ITU-R P.2040 fits outside their frequency ranges.
     #[arg(long)]
     pub extrapolate: bool,
-    /// Walls are thin slabs that also transmit (ITU-R P.2040-3 sec. 2.2.2.2).
-    #[arg(long)]
+    /// Walls are thin slabs that reflect and transmit (ITU-R P.2040-3 sec. 2.2.2.2): the
+    /// default, so this flag changes nothing (kept for older command lines).
+    #[arg(long, overrides_with = "no_transmission")]
     pub transmission: bool,
-    /// Slab thickness for --transmission, m (default 0.2).
+    /// Walls are opaque half-spaces that only reflect.
+    #[arg(long, overrides_with = "transmission")]
+    pub no_transmission: bool,
+    /// Slab thickness of every wall, m (default: each material's thickness_m, else 0.1).
     #[arg(long)]
     pub wall_thickness_m: Option<f64>,
+    /// Write the channel frequency response at the point receivers (cfr.csv) over this
+    /// bandwidth, MHz, centred on the carrier.
+    #[arg(long)]
+    pub cfr_bandwidth_mhz: Option<f64>,
+    /// Frequency points of the channel frequency response (default 256).
+    #[arg(long)]
+    pub cfr_points: Option<u64>,
     /// Extra coherent point receiver X,Y,Z (repeatable).
     #[arg(long = "rx", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub rx: Vec<[f32; 3]>,
@@ -110,8 +121,10 @@ impl RfArgs {
             max_depth: self.max_depth,
             seed: self.seed,
             extrapolate: self.extrapolate,
-            transmission: self.transmission,
+            no_transmission: self.no_transmission,
             wall_thickness_m: self.wall_thickness_m,
+            cfr_bandwidth_mhz: self.cfr_bandwidth_mhz,
+            cfr_points: self.cfr_points,
             receivers: self.rx.clone(),
             no_receivers: self.no_receivers,
         }
@@ -131,7 +144,8 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
     Some(super::progress::bar(total, "rays"))
 }
 
-/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`.
+/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`, and with point
+/// receivers `paths.csv`, a `pdp_RECEIVER.png` each and (if asked) `cfr.csv`.
 pub fn write_outputs<'a>(
     out: &std::path::Path,
     scene_name: &str,
@@ -158,7 +172,9 @@ pub fn write_outputs<'a>(
         &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
         png_width,
     )?;
-    let outputs = [&csv, &png, &json].iter().map(|p| p.display().to_string()).collect();
+    let receiver_files = write_receiver_outputs(out, config, result)?;
+    let outputs =
+        [&csv, &png, &json].into_iter().chain(&receiver_files).map(|p| p.display().to_string()).collect();
     let s = summary(scene_name, config, result, outputs);
     write_summary_json(&json, &s)?;
     Ok(s)
@@ -210,6 +226,14 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         );
     }
     say!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    if !config.receivers.is_empty() {
+        let cfr = if config.cfr.is_some() { ", cfr.csv" } else { "" };
+        say!(
+            "wrote paths.csv, {} power-delay profile(s) pdp_*.png{cfr} in {}",
+            config.receivers.len(),
+            args.out.display()
+        );
+    }
     Ok(())
 }
 

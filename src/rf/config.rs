@@ -22,8 +22,12 @@ pub const DEFAULT_RAYS: u64 = 1_000_000;
 pub const DEFAULT_MAX_DEPTH: u32 = 3;
 /// Most rays per transmitter.
 pub const MAX_RAYS: u64 = 10_000_000_000;
-/// Wall thickness of the thin-slab transmission model when none is given, metres.
-pub const DEFAULT_WALL_THICKNESS_M: f64 = 0.2;
+/// Wall thickness of the thin-slab transmission model when neither the material
+/// (`thickness_m`) nor `--wall-thickness-m` gives one, metres: Sionna RT's default
+/// `RadioMaterial` thickness (docs/radio.md, sec. 1).
+pub const DEFAULT_WALL_THICKNESS_M: f64 = 0.1;
+/// Most frequency points of a channel frequency response.
+pub const MAX_CFR_POINTS: usize = 1_000_000;
 /// Longest ray path, metres (rays leaving an open scene end here).
 pub const MAX_PATH_M: f64 = 100_000.0;
 
@@ -57,8 +61,14 @@ pub struct Overrides {
     pub max_depth: Option<u32>,
     pub seed: Option<u64>,
     pub extrapolate: bool,
-    pub transmission: bool,
+    /// Walls are opaque half-spaces that only reflect (transmission is on by default).
+    pub no_transmission: bool,
+    /// Slab thickness of every wall, metres, instead of the materials' `thickness_m`.
     pub wall_thickness_m: Option<f64>,
+    /// Bandwidth of the channel frequency response at the point receivers, MHz.
+    pub cfr_bandwidth_mhz: Option<f64>,
+    /// Frequency points of the channel frequency response (default [`DEFAULT_CFR_POINTS`]).
+    pub cfr_points: Option<u64>,
     /// Extra point receivers.
     pub receivers: Vec<[f32; 3]>,
     /// Ignore the scene's point receivers.
@@ -74,11 +84,33 @@ pub struct RfConfig {
     pub max_depth: u32,
     pub seed: u64,
     pub extrapolate: bool,
-    /// Walls as thin slabs that also transmit (`wall_thickness_m` thick).
+    /// Walls as thin slabs that reflect and transmit (ITU-R P.2040-3 single layer), each
+    /// of its material's thickness; otherwise opaque half-spaces that only reflect.
     pub transmission: bool,
-    pub wall_thickness_m: f64,
+    /// Slab thickness of every wall, metres, overriding the materials' (`--wall-thickness-m`).
+    pub wall_thickness_m: Option<f64>,
     pub max_path_m: f64,
     pub receivers: Vec<PointReceiver>,
+    /// The channel frequency response to write at the point receivers, if asked.
+    pub cfr: Option<CfrSpec>,
+}
+
+/// Frequency points of a channel frequency response when only the bandwidth is given.
+pub const DEFAULT_CFR_POINTS: usize = 256;
+
+/// A band of `points` equally spaced frequencies, `bandwidth_hz` wide, centred on each
+/// transmitter's carrier (the centres of `points` equal sub-bands).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct CfrSpec {
+    pub bandwidth_hz: f64,
+    pub points: usize,
+}
+
+impl CfrSpec {
+    /// Offset of point `i` from the carrier, Hz: `B ((i + 1/2) / N - 1/2)`.
+    pub fn offset_hz(&self, i: usize) -> f64 {
+        self.bandwidth_hz * ((i as f64 + 0.5) / self.points as f64 - 0.5)
+    }
 }
 
 fn antenna_from(
@@ -188,8 +220,22 @@ impl RfConfig {
         if max_depth > 64 {
             return Err(format!("--max-depth {max_depth}: must be at most 64"));
         }
-        let wall_thickness_m =
-            positive(o.wall_thickness_m.unwrap_or(DEFAULT_WALL_THICKNESS_M), "--wall-thickness-m")?;
+        let wall_thickness_m = match o.wall_thickness_m {
+            Some(t) => Some(positive(t, "--wall-thickness-m")?),
+            None => None,
+        };
+        let cfr = match (o.cfr_bandwidth_mhz, o.cfr_points) {
+            (None, None) => None,
+            (None, Some(_)) => return Err("--cfr-points needs --cfr-bandwidth-mhz".into()),
+            (Some(b), n) => {
+                let bandwidth_hz = positive(b, "--cfr-bandwidth-mhz")? * 1e6;
+                let points = n.unwrap_or(DEFAULT_CFR_POINTS as u64);
+                if points == 0 || points > MAX_CFR_POINTS as u64 {
+                    return Err(format!("--cfr-points {points}: must be between 1 and {MAX_CFR_POINTS}"));
+                }
+                Some(CfrSpec { bandwidth_hz, points: points as usize })
+            }
+        };
         let mut receivers: Vec<PointReceiver> = if o.no_receivers {
             Vec::new()
         } else {
@@ -214,10 +260,11 @@ impl RfConfig {
             max_depth,
             seed: o.seed.unwrap_or(1),
             extrapolate: o.extrapolate,
-            transmission: o.transmission,
+            transmission: !o.no_transmission,
             wall_thickness_m,
             max_path_m: MAX_PATH_M,
             receivers,
+            cfr,
         })
     }
 }

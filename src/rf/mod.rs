@@ -91,6 +91,22 @@ pub fn surface_permittivities(
     Ok(out)
 }
 
+/// The slab thickness of every surface of `world`, metres: `wall_thickness_m` when given
+/// (`--wall-thickness-m`), else its material's `thickness_m`, else
+/// [`config::DEFAULT_WALL_THICKNESS_M`] (0.1 m, as in Sionna RT).
+pub fn surface_thicknesses(world: &World, wall_thickness_m: Option<f64>) -> Vec<f64> {
+    world
+        .scene
+        .surfaces
+        .iter()
+        .map(|s| {
+            wall_thickness_m
+                .or_else(|| s.material.as_ref().and_then(|m| m.thickness_m))
+                .unwrap_or(config::DEFAULT_WALL_THICKNESS_M)
+        })
+        .collect()
+}
+
 /// The radio constants a surface was simulated with.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SurfaceRadio {
@@ -101,6 +117,11 @@ pub struct SurfaceRadio {
     pub eta_im: f64,
     /// |Gamma| at normal incidence (half-space).
     pub normal_incidence_reflection: f64,
+    /// Slab thickness, metres, when walls transmit (`null` when they are opaque).
+    pub thickness_m: Option<f64>,
+    /// |R| and |T| of the slab at normal incidence, when walls transmit.
+    pub normal_incidence_slab_reflection: Option<f64>,
+    pub normal_incidence_slab_transmission: Option<f64>,
 }
 
 /// One transmitter's share of a result.
@@ -124,6 +145,8 @@ pub struct RfResult {
     /// Received power per cell, mW, summed over the transmitters.
     pub rx_power_mw: Vec<f64>,
     pub transmitters: Vec<TransmitterResult>,
+    /// Name of every surface of the scene, by `SurfaceId` (for the paths' interactions).
+    pub surface_names: Vec<String>,
     pub seconds: f64,
 }
 
@@ -158,7 +181,9 @@ pub fn simulate_on(
         let wavelength_m = C0 / (tx.freq_ghz * 1e9);
         let physics = SurfacePhysics {
             eta,
-            slab_thickness_m: config.transmission.then_some(config.wall_thickness_m),
+            slab_thickness_m: config
+                .transmission
+                .then(|| surface_thicknesses(world, config.wall_thickness_m)),
             wavelength_m,
         };
         let t0 = std::time::Instant::now();
@@ -213,13 +238,21 @@ pub fn simulate_on(
             .surfaces
             .iter()
             .zip(&physics.eta)
-            .filter_map(|(s, eta)| {
-                eta.map(|e| SurfaceRadio {
-                    surface: s.name.clone(),
-                    material: s.material.as_ref().map(|m| m.name.clone()),
-                    eta_re: e.re,
-                    eta_im: e.im,
-                    normal_incidence_reflection: fresnel::reflection(e, 1.0).0.abs(),
+            .enumerate()
+            .filter_map(|(id, (s, eta))| {
+                let thickness = physics.slab_thickness_m.as_ref().and_then(|t| t.get(id).copied());
+                eta.map(|e| {
+                    let slab = thickness.map(|d| fresnel::slab(e, 1.0, d, wavelength_m));
+                    SurfaceRadio {
+                        surface: s.name.clone(),
+                        material: s.material.as_ref().map(|m| m.name.clone()),
+                        eta_re: e.re,
+                        eta_im: e.im,
+                        normal_incidence_reflection: fresnel::reflection(e, 1.0).0.abs(),
+                        thickness_m: thickness,
+                        normal_incidence_slab_reflection: slab.map(|c| c.r_te.abs()),
+                        normal_incidence_slab_transmission: slab.map(|c| c.t_te.abs()),
+                    }
                 })
             })
             .collect();
@@ -234,7 +267,14 @@ pub fn simulate_on(
     if !cluster.is_root() {
         return Ok(None);
     }
-    Ok(Some(RfResult { coverage, rx_power_mw, transmitters, seconds: start.elapsed().as_secs_f64() }))
+    let surface_names = world.scene.surfaces.iter().map(|s| s.name.clone()).collect();
+    Ok(Some(RfResult {
+        coverage,
+        rx_power_mw,
+        transmitters,
+        surface_names,
+        seconds: start.elapsed().as_secs_f64(),
+    }))
 }
 
 /// A point receiver of the coherent mode.

@@ -1,11 +1,15 @@
-//! Writers for the radio outputs: `coverage.csv`, the JSON summary (the PNG is in
-//! [`super::plot`]). No physics here.
+//! Writers for the radio outputs: `coverage.csv`, the JSON summary, and at the point
+//! receivers the channel impulse responses (`paths.csv`, a power-delay profile per receiver)
+//! and frequency responses (`cfr.csv`); the PNGs are drawn in [`super::plot`]. No physics
+//! here: the quantities are defined in [`super::receivers`] and docs/radio.md, sec. 3.
 
 use std::path::Path;
 
 use anyhow::Context as _;
 use serde::Serialize;
 
+use super::config::CfrSpec;
+use super::receivers::{Interaction, PathRecord, azimuth_zenith_deg, frequency_response};
 use super::{RfConfig, RfResult};
 
 /// What `path_gain_db` means, repeated in the JSON summary and the README.
@@ -175,4 +179,162 @@ pub fn summary<'a>(
 pub fn write_summary_json(path: &Path, summary: &Summary) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(summary)?;
     std::fs::write(path, text + "\n").with_context(|| format!("{}", path.display()))
+}
+
+/// The columns of `paths.csv`, exactly.
+pub const PATHS_CSV_COLUMNS: [&str; 12] = [
+    "transmitter",
+    "receiver",
+    "path",
+    "delay_s",
+    "amplitude_re",
+    "amplitude_im",
+    "gain_db",
+    "aod_azimuth_deg",
+    "aod_zenith_deg",
+    "aoa_azimuth_deg",
+    "aoa_zenith_deg",
+    "interactions",
+];
+
+/// The columns of `cfr.csv`, exactly.
+pub const CFR_CSV_COLUMNS: [&str; 6] = ["transmitter", "receiver", "freq_hz", "re", "im", "gain_db"];
+
+/// A path's interactions as written in `paths.csv`: `LOS` for the direct path, else
+/// `R:SURFACE` per reflection, first first, separated by `;`.
+pub fn interactions_text(interactions: &[Interaction], surface_names: &[String]) -> String {
+    if interactions.is_empty() {
+        return "LOS".into();
+    }
+    let name = |s: u32| surface_names.get(s as usize).map_or_else(|| format!("#{s}"), Clone::clone);
+    interactions
+        .iter()
+        .map(|i| match *i {
+            Interaction::Reflection { surface } => format!("R:{}", name(surface)),
+        })
+        .collect::<Vec<_>>()
+        .join(";")
+}
+
+/// The paths of one receiver for one transmitter, by increasing delay (ties: the order found).
+pub fn paths_by_delay(records: &[PathRecord]) -> Vec<&PathRecord> {
+    let mut v: Vec<&PathRecord> = records.iter().collect();
+    v.sort_by(|a, b| a.delay_s.total_cmp(&b.delay_s));
+    v
+}
+
+fn gain_db_text(g: f64) -> String {
+    if g > 0.0 { format!("{:.6}", 10.0 * g.log10()) } else { String::new() }
+}
+
+/// Writes `paths.csv`: one row per path of every (transmitter, receiver) pair, numbered from 0
+/// by increasing delay. Delays and amplitudes are written exactly (the shortest decimal
+/// exponent form that reads back to the same f64), gains and angles to 1e-6; a path of zero amplitude has an empty `gain_db`.
+pub fn write_paths_csv(path: &Path, config: &RfConfig, result: &RfResult) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
+    w.write_record(PATHS_CSV_COLUMNS)?;
+    for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
+        for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
+            for (k, p) in paths_by_delay(&ps.records).into_iter().enumerate() {
+                let (aod_az, aod_ze) = azimuth_zenith_deg(p.departure);
+                let (aoa_az, aoa_ze) = azimuth_zenith_deg(p.arrival);
+                w.write_record([
+                    t.name.clone(),
+                    r.name.clone(),
+                    k.to_string(),
+                    format!("{:e}", p.delay_s),
+                    format!("{:e}", p.amplitude.re),
+                    format!("{:e}", p.amplitude.im),
+                    gain_db_text(p.gain()),
+                    format!("{aod_az:.6}"),
+                    format!("{aod_ze:.6}"),
+                    format!("{aoa_az:.6}"),
+                    format!("{aoa_ze:.6}"),
+                    interactions_text(&p.interactions, &result.surface_names),
+                ])?;
+            }
+        }
+    }
+    w.flush().with_context(|| format!("{}", path.display()))?;
+    Ok(())
+}
+
+/// Writes `cfr.csv`: the channel frequency response `H(f)` of every (transmitter, receiver)
+/// pair at the `spec.points` frequencies of the band centred on the transmitter's carrier
+/// ([`CfrSpec::offset_hz`]); `gain_db = 10 log10 |H|^2` (empty when `H = 0`).
+pub fn write_cfr_csv(
+    path: &Path,
+    config: &RfConfig,
+    result: &RfResult,
+    spec: &CfrSpec,
+) -> anyhow::Result<()> {
+    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
+    w.write_record(CFR_CSV_COLUMNS)?;
+    for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
+        let carrier_hz = t.freq_ghz * 1e9;
+        for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
+            for i in 0..spec.points {
+                let offset = spec.offset_hz(i);
+                let h = frequency_response(&ps.records, offset);
+                w.write_record([
+                    t.name.clone(),
+                    r.name.clone(),
+                    (carrier_hz + offset).to_string(),
+                    format!("{:e}", h.re),
+                    format!("{:e}", h.im),
+                    gain_db_text(h.norm_sqr()),
+                ])?;
+            }
+        }
+    }
+    w.flush().with_context(|| format!("{}", path.display()))?;
+    Ok(())
+}
+
+/// Writes the point receivers' outputs into `out`: `paths.csv`, `pdp_RECEIVER.png` for each
+/// receiver (every transmitter's paths on one chart), and `cfr.csv` when the config asks for
+/// it. Nothing when there is no receiver. Returns the files written.
+pub fn write_receiver_outputs(
+    out: &Path,
+    config: &RfConfig,
+    result: &RfResult,
+) -> anyhow::Result<Vec<std::path::PathBuf>> {
+    let mut written = Vec::new();
+    if config.receivers.is_empty() {
+        return Ok(written);
+    }
+    let paths = out.join("paths.csv");
+    write_paths_csv(&paths, config, result)?;
+    written.push(paths);
+    let mut stems = std::collections::BTreeSet::new();
+    for (i, r) in config.receivers.iter().enumerate() {
+        let mut stem = crate::io::file_stem(&r.name);
+        if !stems.insert(stem.clone()) {
+            stem = format!("{stem}_{}", i + 1);
+            stems.insert(stem.clone());
+        }
+        let png = out.join(format!("pdp_{stem}.png"));
+        let series: Vec<(String, Vec<(f64, f64)>)> = config
+            .transmitters
+            .iter()
+            .zip(&result.transmitters)
+            .map(|(t, tr)| {
+                let points = tr.receivers[i]
+                    .records
+                    .iter()
+                    .filter(|p| p.gain() > 0.0)
+                    .map(|p| (p.delay_s * 1e9, 10.0 * p.gain().log10()))
+                    .collect();
+                (t.name.clone(), points)
+            })
+            .collect();
+        super::plot::write_pdp_png(&png, &r.name, &series)?;
+        written.push(png);
+    }
+    if let Some(spec) = &config.cfr {
+        let cfr = out.join("cfr.csv");
+        write_cfr_csv(&cfr, config, result, spec)?;
+        written.push(cfr);
+    }
+    Ok(written)
 }

@@ -166,3 +166,89 @@ pub fn write_coverage_png(
     }
     write_rgb_png(path, w, h, &buf)
 }
+
+/// Colours of the transmitters in a power-delay profile (Okabe & Ito 2008, colour-blind safe).
+const TX_COLOURS: [RGBColor; 6] = [
+    RGBColor(0, 114, 178),
+    RGBColor(230, 159, 0),
+    RGBColor(0, 158, 115),
+    RGBColor(213, 94, 0),
+    RGBColor(86, 180, 233),
+    RGBColor(204, 121, 167),
+];
+
+/// The power-delay profile of one receiver as PNG: a stem per path at its delay (ns) up to
+/// its gain `10 log10 |a|^2` (dB) from the chart's floor, with a circle at the top; one
+/// colour per transmitter, `(name, [(delay_ns, gain_db)])` each, named in a legend when
+/// there are several. The floor is 60 dB below the strongest path (or 5 dB below the
+/// weakest, if that is higher).
+pub fn write_pdp_png(
+    path: &Path,
+    receiver: &str,
+    transmitters: &[(String, Vec<(f64, f64)>)],
+) -> anyhow::Result<()> {
+    register_font();
+    let all = || transmitters.iter().flat_map(|(_, p)| p.iter().copied());
+    let top = all().map(|p| p.1).fold(f64::NEG_INFINITY, f64::max);
+    let bottom = all().map(|p| p.1).fold(f64::INFINITY, f64::min);
+    let latest = all().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max);
+    let earliest = all().map(|p| p.0).fold(f64::INFINITY, f64::min);
+    let (y0, y1) = if top.is_finite() {
+        let y1 = (top / 5.0).ceil() * 5.0 + 5.0;
+        (((bottom - 5.0).max(y1 - 65.0) / 5.0).floor() * 5.0, y1)
+    } else {
+        (-100.0, 0.0)
+    };
+    // The delays of the paths with a margin of 5 % of their spread (at least 1 ns) each side.
+    let (x0, x1) = if latest.is_finite() {
+        let margin = (0.05 * (latest - earliest)).max(1.0);
+        ((earliest - margin).max(0.0), latest + margin)
+    } else {
+        (0.0, 1.0)
+    };
+    let (w, h) = (900u32, 520u32);
+    let mut buf = vec![255u8; (w * h * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let title = if top.is_finite() {
+            format!("Power-delay profile at {receiver}")
+        } else {
+            format!("Power-delay profile at {receiver}: no path")
+        };
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(60)
+            .build_cartesian_2d(x0..x1, y0..y1)?;
+        chart
+            .configure_mesh()
+            .x_desc("delay (ns)")
+            .y_desc("path gain (dB)")
+            .y_label_formatter(&|v| format!("{v:.0}"))
+            .label_style(("sans-serif", 13))
+            .draw()?;
+        for (i, (name, points)) in transmitters.iter().enumerate() {
+            let colour = TX_COLOURS[i % TX_COLOURS.len()];
+            let style = colour.stroke_width(2);
+            chart
+                .draw_series(
+                    points.iter().map(|&(x, y)| PathElement::new(vec![(x, y0), (x, y.max(y0))], style)),
+                )?
+                .label(name.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2)));
+            chart.draw_series(points.iter().map(|&(x, y)| Circle::new((x, y.max(y0)), 4, style)))?;
+        }
+        if transmitters.len() > 1 {
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font(("sans-serif", 13))
+                .draw()?;
+        }
+        root.present()?;
+    }
+    write_rgb_png(path, w, h, &buf)
+}

@@ -1,6 +1,13 @@
-//! The radio payload of the shared launcher: a ray's complex field vector, reflected at
-//! each surface with the exact Fresnel coefficients of its ITU-R P.2040 material, and
-//! deposited into the coverage grid on every crossing of the grid plane.
+//! The radio payload of the shared launcher: a ray's complex field vector, reflected (or,
+//! when walls are thin slabs, reflected or transmitted) at each surface with the exact
+//! Fresnel coefficients of its ITU-R P.2040 material, and deposited into the coverage grid
+//! on every crossing of the grid plane.
+//!
+//! One ray per path: at a slab the ray goes on as *either* the reflected or the transmitted
+//! wave, chosen at random with probabilities proportional to the two branches' powers, and
+//! its field is divided by the square root of the chosen probability so that every cell's
+//! expected deposit is the sum over both branches (docs/radio.md, sec. 2). The work per ray
+//! grows with the depth, not with 2^depth.
 
 use glam::{DVec3, Vec3};
 
@@ -11,6 +18,7 @@ use crate::core::hit::Hit;
 use crate::core::launcher::{Bounce, Propagation};
 use crate::core::ray::Ray;
 use crate::core::rng::Rng64;
+use rand::RngCore;
 
 /// A complex 3-vector: the (phasor) electric field direction and amplitude of a ray.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -100,9 +108,9 @@ pub struct SurfacePhysics {
     /// Complex relative permittivity of each surface (indexed by `SurfaceId`); `None`
     /// absorbs (no reflection).
     pub eta: Vec<Option<Complex>>,
-    /// Walls are thin slabs of this thickness that also transmit, or (`None`) opaque
-    /// half-spaces that only reflect.
-    pub slab_thickness_m: Option<f64>,
+    /// Walls are thin slabs that also transmit, each surface (indexed by `SurfaceId`) of
+    /// this thickness, metres; or (`None`) opaque half-spaces that only reflect.
+    pub slab_thickness_m: Option<Vec<f64>>,
     pub wavelength_m: f64,
 }
 
@@ -111,21 +119,22 @@ impl SurfacePhysics {
     /// coefficients when walls are slabs.
     pub fn coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
         let eta = (*self.eta.get(surface as usize)?)?;
-        Some(match self.slab_thickness_m {
+        Some(match &self.slab_thickness_m {
             None => {
                 let (te, tm) = reflection(eta, cos_theta);
                 (te, tm, None)
             }
             Some(d) => {
-                let s = slab(eta, cos_theta, d, self.wavelength_m);
+                let s = slab(eta, cos_theta, *d.get(surface as usize)?, self.wavelength_m);
                 (s.r_te, s.r_tm, Some((s.t_te, s.t_tm)))
             }
         })
     }
 }
 
-/// The radio [`Propagation`]: payload = the ray's field vector, normalised so that
-/// `|E|^2 = G(dir) prod |Gamma|^2` (power relative to `P_tx / N`).
+/// The radio [`Propagation`]: payload = the ray's field vector, normalised so that its
+/// expected `|E|^2` is `G(dir) prod |Gamma|^2` (power relative to `P_tx / N`), the product
+/// over the interactions of the branch the path took (`|R|^2` or `|T|^2`).
 pub struct RadioPropagation<'a> {
     pub antenna: Antenna,
     pub physics: &'a SurfacePhysics,
@@ -164,32 +173,100 @@ impl Propagation for RadioPropagation<'_> {
         hit: &Hit,
         incoming: Vec3,
         _: f32,
-        _: &mut Rng64,
+        rng: &mut Rng64,
     ) -> Bounce {
         let basis = LocalBasis::new(incoming.as_dvec3(), hit.normal.as_dvec3());
-        let Some((r_te, r_tm, _)) = self.physics.coefficients(hit.surface, basis.cos_theta) else {
+        let Some((r_te, r_tm, t)) = self.physics.coefficients(hit.surface, basis.cos_theta) else {
             return Bounce::Stop;
         };
-        *payload = basis.reflect(payload, r_te, r_tm);
-        if payload.power() < MIN_POWER {
-            return Bounce::Stop;
+        let reflected = basis.reflect(payload, r_te, r_tm);
+        let Some((t_te, t_tm)) = t else {
+            *payload = reflected;
+            if payload.power() < MIN_POWER {
+                return Bounce::Stop;
+            }
+            return Bounce::Continue(basis.reflected.as_vec3());
+        };
+        let transmitted = basis.transmit(payload, t_te, t_tm);
+        match choose_branch(reflected.power(), transmitted.power(), unit_f64(rng)) {
+            None => Bounce::Stop,
+            Some((Branch::Reflected, scale)) => {
+                *payload = reflected.scale(Complex::new(scale, 0.0));
+                Bounce::Continue(basis.reflected.as_vec3())
+            }
+            // A thin slab does not offset the ray: it goes on along its incoming direction,
+            // and the launcher's `Ray::spawn` starts it on the far side of the surface (the
+            // side the direction points to).
+            Some((Branch::Transmitted, scale)) => {
+                *payload = transmitted.scale(Complex::new(scale, 0.0));
+                Bounce::Continue(incoming)
+            }
         }
-        Bounce::Continue(basis.reflected.as_vec3())
     }
+}
 
-    fn transmit(&self, payload: &FieldVec, hit: &Hit, incoming: Vec3) -> Option<FieldVec> {
-        self.physics.slab_thickness_m?;
-        let basis = LocalBasis::new(incoming.as_dvec3().normalize(), hit.normal.as_dvec3());
-        let (_, _, t) = self.physics.coefficients(hit.surface, basis.cos_theta)?;
-        let (t_te, t_tm) = t?;
-        let e = basis.transmit(payload, t_te, t_tm);
-        (e.power() >= MIN_POWER).then_some(e)
+/// The branch a ray takes at a slab.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Branch {
+    Reflected,
+    Transmitted,
+}
+
+/// A uniform `f64` in `[0, 1)` with 53 random bits.
+fn unit_f64(rng: &mut Rng64) -> f64 {
+    (rng.next_u64() >> 11) as f64 * (1.0 / 9_007_199_254_740_992.0)
+}
+
+/// The unbiased choice between the reflected branch (power `p_r`) and the transmitted one
+/// (`p_t`) for a uniform `u` in `[0, 1)`: transmitted when `u (p_r + p_t) < p_t`, i.e. with
+/// probability `q_t = p_t / (p_r + p_t)`, else reflected (`q_r = p_r / (p_r + p_t)`), and the
+/// amplitude factor `1 / sqrt(q)` of the chosen branch, which makes the expected power
+/// `q_r (p_r / q_r) + q_t (p_t / q_t) = p_r + p_t` (docs/radio.md, sec. 2). The carried power
+/// after the choice is `p_r + p_t` on either branch, at most the incident power (a passive
+/// slab), so weights never grow. `None` when both branches carry less than the cut-off.
+pub fn choose_branch(p_r: f64, p_t: f64, u: f64) -> Option<(Branch, f64)> {
+    let total = p_r + p_t;
+    // (NaN fails this test too.)
+    if total.is_nan() || total < MIN_POWER {
+        return None;
+    }
+    if u * total < p_t {
+        Some((Branch::Transmitted, (total / p_t).sqrt()))
+    } else {
+        Some((Branch::Reflected, (total / p_r).sqrt()))
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_branch_choice_is_proportional_to_power_and_unbiased() {
+        // Over a uniform grid of u the mean weighted power of each branch is its own power.
+        let (p_r, p_t) = (0.3, 0.05);
+        let n = 100_000;
+        let (mut sum_r, mut sum_t, mut count_t) = (0.0, 0.0, 0);
+        for i in 0..n {
+            let u = (f64::from(i) + 0.5) / f64::from(n);
+            let (b, scale) = choose_branch(p_r, p_t, u).unwrap();
+            match b {
+                Branch::Reflected => sum_r += p_r * scale * scale,
+                Branch::Transmitted => {
+                    sum_t += p_t * scale * scale;
+                    count_t += 1;
+                }
+            }
+        }
+        assert!((f64::from(count_t) / f64::from(n) - p_t / (p_r + p_t)).abs() < 1e-4);
+        assert!((sum_r / f64::from(n) - p_r).abs() < 1e-4 * p_r, "{}", sum_r / f64::from(n));
+        assert!((sum_t / f64::from(n) - p_t).abs() < 1e-4 * p_t, "{}", sum_t / f64::from(n));
+        // A branch without power is never chosen; nothing at all stops the ray.
+        assert_eq!(choose_branch(0.2, 0.0, 0.0).map(|c| c.0), Some(Branch::Reflected));
+        assert_eq!(choose_branch(0.0, 0.2, 0.999).map(|c| c.0), Some(Branch::Transmitted));
+        assert_eq!(choose_branch(0.0, 0.0, 0.5), None);
+        assert_eq!(choose_branch(f64::NAN, 0.1, 0.5), None);
+    }
 
     #[test]
     fn conductor_reflection_cancels_the_tangential_field() {

@@ -10,11 +10,16 @@
 //! `h = (lambda / 4 pi L) e^{-j 2 pi L / lambda} (prod of reflection dyads) e_tx sqrt(G_tx)`,
 //! a complex vector; the coherent path gain is `|sum h|^2` (an isotropic receiver taking all
 //! polarisations), the incoherent one `sum |h|^2`.
+//!
+//! Each path is also kept as a [`PathRecord`] for the channel impulse response: its delay
+//! `tau = L / c`, its complex amplitude `a = e_rx . h` at a receiver polarised like the
+//! transmitter's antenna, its angles of departure and arrival and its interactions
+//! (docs/radio.md, sec. 3).
 
 use glam::DVec3;
 
 use super::antenna::Antenna;
-use super::fresnel::Complex;
+use super::fresnel::{C0, Complex};
 use super::propagation::{FieldVec, LocalBasis, SurfacePhysics};
 use crate::core::Accel;
 use crate::core::specular::{Planes, SpecularPath, specular_paths};
@@ -33,6 +38,52 @@ pub struct PathSum {
     pub coherent_gain: f64,
     /// `sum |h|^2`, linear.
     pub incoherent_gain: f64,
+    /// Every path, in the order found.
+    pub records: Vec<PathRecord>,
+}
+
+/// What a path does at one of its points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Interaction {
+    /// A specular reflection on this surface (`SurfaceId`).
+    Reflection { surface: u32 },
+}
+
+/// One path of a channel impulse response (docs/radio.md, sec. 3).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathRecord {
+    /// Length, metres.
+    pub length_m: f64,
+    /// Propagation delay `L / c0`, seconds.
+    pub delay_s: f64,
+    /// The field vector `h` at the receiver (phase at the carrier included).
+    pub field: FieldVec,
+    /// The complex amplitude `a = e_rx . h`, with `e_rx` the transmitter antenna's
+    /// polarisation in the direction the wave travels at the receiver (a co-polarised
+    /// isotropic receiver); `|a|^2` is the path's gain.
+    pub amplitude: Complex,
+    /// Unit direction in which the path leaves the transmitter.
+    pub departure: DVec3,
+    /// Unit direction from the receiver towards the point the path arrives from.
+    pub arrival: DVec3,
+    /// The interactions, first (nearest the transmitter) first.
+    pub interactions: Vec<Interaction>,
+}
+
+impl PathRecord {
+    /// Path gain `|a|^2`, linear.
+    pub fn gain(&self) -> f64 {
+        self.amplitude.norm_sqr()
+    }
+}
+
+/// Azimuth (from +x towards +y, in (-180, 180]) and zenith (from +z, in [0, 180]) of the
+/// unit vector `d`, degrees: the angle convention of Sionna RT and 3GPP TR 38.901 sec. 7.1
+/// (docs/radio.md, sec. 3).
+pub fn azimuth_zenith_deg(d: DVec3) -> (f64, f64) {
+    let azimuth = d.y.atan2(d.x).to_degrees();
+    // atan2 gives -180 for y = -0: the same direction as +180.
+    (if azimuth <= -180.0 { azimuth + 360.0 } else { azimuth }, d.z.clamp(-1.0, 1.0).acos().to_degrees())
 }
 
 /// Sums the specular paths of up to `max_depth` reflections (lowered in large meshes, see
@@ -56,6 +107,24 @@ pub fn coherent_paths(
             out.line_of_sight |= path.order() == 0;
             out.incoherent_gain += h.power();
             total = total.add(&h);
+            let points = path.points();
+            let n = points.len();
+            let departure = (points[1] - points[0]).normalize();
+            let travel = (points[n - 1] - points[n - 2]).normalize();
+            let e_rx = antenna.polarization(travel);
+            out.records.push(PathRecord {
+                length_m: path.length_m,
+                delay_s: path.length_m / C0,
+                field: h,
+                amplitude: h.along(e_rx),
+                departure,
+                arrival: -travel,
+                interactions: path
+                    .reflections
+                    .iter()
+                    .map(|r| Interaction::Reflection { surface: r.surface })
+                    .collect(),
+            });
         }
     }
     out.coherent_gain = total.power();
@@ -80,4 +149,14 @@ fn path_field(path: &SpecularPath, physics: &SurfacePhysics, antenna: &Antenna) 
     let k = std::f64::consts::TAU / lambda;
     let amplitude = lambda / (4.0 * std::f64::consts::PI * length);
     Some(e.scale(Complex::cis(-k * length).scale(amplitude)))
+}
+
+/// The channel frequency response at `offset_hz` from the carrier,
+/// `H(f_c + offset) = sum_k a_k exp(-j 2 pi offset tau_k)`: the amplitudes `a_k` already hold
+/// the carrier's phase `exp(-j 2 pi f_c tau_k)`, and are taken as constant over the band
+/// (docs/radio.md, sec. 3).
+pub fn frequency_response(records: &[PathRecord], offset_hz: f64) -> Complex {
+    records.iter().fold(Complex::ZERO, |h, r| {
+        h + r.amplitude * Complex::cis(-std::f64::consts::TAU * offset_hz * r.delay_s)
+    })
 }

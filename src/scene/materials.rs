@@ -84,6 +84,9 @@ pub struct Material {
     pub source: String,
     pub acoustic: Option<AcousticProps>,
     pub radio: Option<RadioProps>,
+    /// Thickness of a wall of this material, metres, for radio transmission through thin
+    /// slabs (ITU-R P.2040-3 sec. 2.2.2.2); `None`: the simulator's default.
+    pub thickness_m: Option<f64>,
     /// `None` when the material says nothing about light (the OBJ's MTL then decides).
     pub optical: Option<OpticalProps>,
 }
@@ -112,6 +115,8 @@ pub struct MaterialSpec {
     pub itu: Option<String>,
     pub relative_permittivity: Option<f64>,
     pub conductivity_s_per_m: Option<f64>,
+    /// Wall thickness for radio transmission through thin slabs, metres (positive).
+    pub thickness_m: Option<f64>,
     pub color: Option<[f32; 3]>,
     pub kind: Option<OpticalKind>,
     pub roughness: Option<f32>,
@@ -232,6 +237,11 @@ impl MaterialSpec {
             }
             (None, None, None) => None,
         };
+        if let Some(t) = self.thickness_m
+            && !(t.is_finite() && t > 0.0)
+        {
+            return Err(format!("thickness_m {t}: must be a positive number of metres"));
+        }
         let optical_given = self.color.is_some()
             || self.kind.is_some()
             || self.emission.is_some()
@@ -265,6 +275,7 @@ impl MaterialSpec {
             source: self.source.clone().unwrap_or_default(),
             acoustic,
             radio,
+            thickness_m: self.thickness_m,
             optical,
         })
     }
@@ -374,6 +385,12 @@ mod tests {
         );
         assert!(spec("[materials.x]\ncolor = [2, 0, 0]\n").is_err());
         assert!(spec("[materials.x]\nbogus = 1\n").unwrap_err().contains("unknown field"));
+        for bad in ["0", "-0.1", "nan", "inf"] {
+            let e = spec(&format!("[materials.x]\nitu = \"concrete\"\nthickness_m = {bad}\n")).unwrap_err();
+            assert!(e.contains("thickness_m") && e.contains("positive"), "{bad}: {e}");
+        }
+        let m = spec("[materials.x]\nitu = \"concrete\"\nthickness_m = 0.25\n").unwrap();
+        assert_eq!(m.thickness_m, Some(0.25));
     }
 
     #[test]
