@@ -13,7 +13,6 @@ use rayon::prelude::*;
 use super::accel::Accel;
 use super::hit::Hit;
 use super::ray::Ray;
-use rand::SeedableRng;
 
 use super::rng::{Rng64, stream, uniform};
 use super::sampling::{fibonacci_sphere, uniform_sphere};
@@ -77,15 +76,6 @@ pub trait Propagation: Sync {
         path_m: f32,
         rng: &mut Rng64,
     ) -> Bounce;
-    /// An optional second ray at a surface interaction, called before [`interact`]: the
-    /// payload of a ray that goes on straight through the surface (thin-slab transmission),
-    /// or `None` (the default). The launcher traces it as a branch of the same ray, with the
-    /// same random stream; it counts one interaction like a reflection.
-    ///
-    /// [`interact`]: Propagation::interact
-    fn transmit(&self, _payload: &Self::Payload, _hit: &Hit, _incoming: Vec3) -> Option<Self::Payload> {
-        None
-    }
 }
 
 /// Launch settings.
@@ -184,17 +174,13 @@ fn trace_block<P: Propagation>(
     accum: &mut P::Accum,
 ) {
     if !accel.mesh.traverser().streams() {
-        let mut pending = Vec::new();
         for i in first..last {
             let mut flight = depart(prop, launch, rotation, i);
             loop {
                 let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
                 let hit = accel.closest_hit(&ray);
-                if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref(), &mut pending) {
-                    match pending.pop() {
-                        Some(branch) => flight = branch,
-                        None => break,
-                    }
+                if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref()) {
+                    break;
                 }
             }
         }
@@ -202,7 +188,6 @@ fn trace_block<P: Propagation>(
     }
     let mut flights: Vec<Flight<P::Payload>> =
         (first..last).map(|i| depart(prop, launch, rotation, i)).collect();
-    let mut branches = Vec::new();
     let mut rays: Vec<Ray> = Vec::with_capacity(flights.len());
     let mut hits: Vec<Option<Hit>> = Vec::with_capacity(flights.len());
     while !flights.is_empty() {
@@ -214,7 +199,7 @@ fn trace_block<P: Propagation>(
         // Flights that go on are kept in order at the front (a stable compaction in place).
         let mut kept = 0;
         for (i, (ray, hit)) in rays.iter().zip(&hits).enumerate() {
-            if step(prop, launch, accum, &mut flights[i], ray, hit.as_ref(), &mut branches) {
+            if step(prop, launch, accum, &mut flights[i], ray, hit.as_ref()) {
                 if kept != i {
                     flights.swap(kept, i);
                 }
@@ -222,12 +207,11 @@ fn trace_block<P: Propagation>(
             }
         }
         flights.truncate(kept);
-        flights.append(&mut branches);
     }
 }
 
 /// One bounce of `flight` along `ray`, which met `hit` (or nothing): the segment's deposits,
-/// then the surface (a transmitted branch goes to `branches`). True if the flight goes on.
+/// then the surface. True if the flight goes on.
 #[inline(always)]
 fn step<P: Propagation>(
     prop: &P,
@@ -236,7 +220,6 @@ fn step<P: Propagation>(
     f: &mut Flight<P::Payload>,
     ray: &Ray,
     hit: Option<&Hit>,
-    branches: &mut Vec<Flight<P::Payload>>,
 ) -> bool {
     let length = hit.map_or(ray.t_max, |h| h.t);
     prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
@@ -244,16 +227,6 @@ fn step<P: Propagation>(
     f.path_m += hit.t;
     if f.reflections >= launch.max_reflections {
         return false;
-    }
-    if let Some(through) = prop.transmit(&f.payload, hit, ray.dir) {
-        // The branch draws from its own stream, seeded from its parent's.
-        branches.push(Flight {
-            ray: Ray::spawn(hit.point, hit.normal, ray.dir),
-            payload: through,
-            path_m: f.path_m,
-            reflections: f.reflections + 1,
-            rng: Rng64::from_rng(&mut f.rng),
-        });
     }
     match prop.interact(accum, &mut f.payload, hit, ray.dir, f.path_m, &mut f.rng) {
         Bounce::Continue(d) => {
