@@ -166,7 +166,8 @@ fn every_docs_page_cited_by_the_code_exists() {
     }
     let mut missing = Vec::new();
     let mut cited = 0;
-    for f in &sources {
+    // This file names `docs/NAME.md` as a pattern, not a page.
+    for f in sources.iter().filter(|f| !f.ends_with("tests/docs_links.rs")) {
         let text = fs::read_to_string(f).unwrap_or_default();
         let mut rest = text.as_str();
         while let Some(at) = rest.find("docs/") {
