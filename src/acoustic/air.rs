@@ -101,7 +101,7 @@ mod tests {
 
     #[test]
     fn iso_9613_1_test_values_20c_50_and_70_percent() {
-        // ../shared/DESIGN.md sec. 3 (ISO 9613-1 Table 1 at the octave centres).
+        // docs/acoustics.md, Reference values (ISO 9613-1 Table 1 at the octave centres).
         let mut air = Air::default();
         check(air, [0.123, 0.445, 1.32, 2.73, 4.66, 9.86, 29.4, 104.0]);
         air.relative_humidity_percent = 70.0;

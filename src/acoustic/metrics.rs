@@ -483,7 +483,7 @@ mod tests {
 
     #[test]
     fn ideal_single_slope_decay_t1() {
-        // ../shared/DESIGN.md sec. 3: T = 1 s -> EDT = T20 = T30 = 1 s, C80 = 3.053 dB,
+        // docs/acoustics.md, Reference values: T = 1 s -> EDT = T20 = T30 = 1 s, C80 = 3.053 dB,
         // C50 = -0.021 dB, D50 = 0.4988, Ts = 72.38 ms. 4 s long so truncation is negligible.
         let e = exponential(1.0, 1e-3, 4.0);
         let m = band_metrics(&e, 1e-3, 0.0);

@@ -4,7 +4,8 @@ use crate::scene::materials::{BAND_COUNT, BandValues};
 
 /// Sabine and Eyring reverberation times per band, seconds:
 /// T_Sabine = 24 ln10 V / (c (sum S_i a_i + 4 m V)) and T_Eyring with sum S_i a_i replaced by
-/// -S ln(1 - a_mean) (Kuttruff, Room Acoustics, eqs. 5.24 and 5.29; DESIGN.md sec. 3).
+/// -S ln(1 - a_mean) (Kuttruff, Room Acoustics, eqs. 5.24 and 5.29; test values in
+/// docs/acoustics.md, Reference values).
 /// `areas_m2[i]` and `absorption[i]` belong to surface i; `air_per_m` is m per band.
 pub fn reverberation_times(
     volume_m3: f64,

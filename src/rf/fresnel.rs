@@ -180,7 +180,7 @@ mod tests {
 
     #[test]
     fn normal_incidence_matches_design_values() {
-        // ../shared/DESIGN.md sec. 4.
+        // docs/radio.md, Reference values.
         for (name, f, want) in [
             ("concrete", 3.5, 0.3946),
             ("brick", 3.5, 0.3286),

@@ -89,7 +89,7 @@ mod tests {
 
     #[test]
     fn conductivities_match_design_test_values() {
-        // ../shared/DESIGN.md sec. 4: 3.5 GHz concrete 0.1231, brick 0.02908, glass 0.01928;
+        // docs/radio.md, Reference values: 3.5 GHz concrete 0.1231, brick 0.02908, glass 0.01928;
         // 2.4 GHz concrete 0.09163 S/m.
         let at = |n: &str, f: f64| itu_lookup(n, f).unwrap().0.conductivity_s_per_m(f);
         assert!((at("concrete", 3.5) - 0.1231).abs() < 5e-4);
