@@ -13,7 +13,7 @@ fn main() -> anyhow::Result<()> {
     let config = RfConfig::from_scene(&world, &overrides).map_err(anyhow::Error::msg)?;
     let result = simulate(&world, &config, &|_| {})?;
     let out = std::env::temp_dir().join("propsim_rf_example.csv");
-    write_coverage_csv(&out, &result)?;
+    write_coverage_csv(&out, &config, &result)?;
     let s = summary(path, &config, &result, vec![out.display().to_string()]);
     println!(
         "{} of {} cells reached, median path gain {:?} dB",

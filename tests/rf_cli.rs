@@ -140,6 +140,23 @@ fn bad_inputs_are_one_line_errors() {
         args.extend(extra);
         assert_clean_error(&args, &["thin.toml", "concrete", "thickness_m", "positive"]);
     }
+    // Transmitter names name coverage.csv's columns: they must differ.
+    let scene = two_transmitters_in_free_space(dir.path());
+    let text = std::fs::read_to_string(&scene).unwrap().replace("TXB", "TXA");
+    std::fs::write(&scene, text).unwrap();
+    assert_clean_error(&["rf", scene.to_str().unwrap()], &["TXA", "used twice", "unique"]);
+    for (flags, needles) in [
+        (&["--vmin-db", "nan"][..], &["--vmin-db NaN", "finite"][..]),
+        (&["--vmax-db", "inf"], &["--vmax-db inf", "finite"]),
+        (&["--vmin-db", "-50", "--vmax-db", "-60"], &["--vmin-db -50", "below --vmax-db -60"]),
+        (&["--vmin-db", "-50", "--vmax-db", "-50"], &["--vmin-db -50", "below --vmax-db -50"]),
+        (&["--bandwidth-mhz", "0"], &["--bandwidth-mhz", "positive"]),
+        (&["--noise-figure-db", "-1"], &["--noise-figure-db -1", "0 or more"]),
+    ] {
+        let mut args = vec!["rf", CANYON];
+        args.extend(flags);
+        assert_clean_error(&args, needles);
+    }
     assert_clean_error(&["rf", CANYON, "--cfr-points", "64"], &["--cfr-points", "--cfr-bandwidth-mhz"]);
     assert_clean_error(&["rf", CANYON, "--cfr-bandwidth-mhz", "0"], &["--cfr-bandwidth-mhz", "positive"]);
     assert_clean_error(
@@ -176,18 +193,23 @@ fn transmission_is_on_by_default_and_the_flags_switch_it() {
     };
     let (default, json) = run("default", &[]);
     assert_eq!(json["config"]["transmission"], true);
+    // The summary says how walls were treated, and that there is no diffraction.
+    assert_eq!(json["physics"]["transmission"], "on (0.1 m slabs, default)");
+    assert_eq!(json["physics"]["diffraction"], "off (not implemented)");
     assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.1);
     assert_eq!(run("flag", &["--transmission"]).0, default);
     assert_eq!(run("thick", &["--wall-thickness-m", "0.1"]).0, default);
     assert_eq!(run("last", &["--no-transmission", "--transmission"]).0, default);
     let (opaque, json) = run("opaque", &["--no-transmission"]);
     assert_eq!(json["config"]["transmission"], false);
+    assert_eq!(json["physics"]["transmission"], "off (opaque walls)");
     let reached =
         |csv: &[u8]| String::from_utf8_lossy(csv).lines().skip(1).filter(|l| !l.contains(",,")).count();
     assert!(reached(&default) > reached(&opaque) + 100, "{} {}", reached(&default), reached(&opaque));
     let (thick, json) = run("thick2", &["--wall-thickness-m", "0.3"]);
     assert_ne!(thick, default);
     assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.3);
+    assert_eq!(json["physics"]["transmission"], "on (0.3 m slabs, --wall-thickness-m)");
 }
 
 #[test]
@@ -330,4 +352,166 @@ fn point_receivers_get_paths_power_delay_profiles_and_frequency_responses() {
     ]);
     assert!(ok, "{err}");
     assert!(!bare.join("paths.csv").exists() && bare.join("coverage.csv").exists());
+}
+
+/// A scene that is free space for the coverage grid: one tiny concrete triangle 1 km up, and
+/// two isotropic transmitters `TXA` and `TXB` at (-25, 0, 21.5) and (25, 0, 21.5), -20 dBm
+/// each at 3.5 GHz, over a 120 x 60 m grid of 2 m cells at 1.5 m.
+fn two_transmitters_in_free_space(dir: &std::path::Path) -> std::path::PathBuf {
+    std::fs::write(
+        dir.join("speck.obj"),
+        "v 0 0 1000\nv 0.01 0 1000\nv 0 0.01 1000\nusemtl concrete\nf 1 2 3\n",
+    )
+    .unwrap();
+    let scene = dir.join("two_tx.toml");
+    std::fs::write(
+        &scene,
+        r#"obj = "speck.obj"
+
+[rf]
+freq_ghz = 3.5
+
+[[rf.transmitters]]
+name = "TXA"
+position = [-25.0, 0.0, 21.5]
+power_dbm = -20.0
+
+[[rf.transmitters]]
+name = "TXB"
+position = [25.0, 0.0, 21.5]
+power_dbm = -20.0
+
+[rf.grid]
+height_m = 1.5
+cell_m = 2.0
+min = [-60.0, -30.0]
+max = [60.0, 30.0]
+"#,
+    )
+    .unwrap();
+    scene
+}
+
+/// Friis `(lambda / 4 pi r)^2` at 3.5 GHz averaged over the 2 m cell centred on (cx, cy) at
+/// 1.5 m (8 x 8 samples), from a transmitter at (tx, 0, 21.5).
+fn friis_cell_average(cx: f64, cy: f64, tx: f64) -> f64 {
+    let lambda = 299_792_458.0 / 3.5e9;
+    let mut sum = 0.0;
+    for a in 0..8 {
+        for b in 0..8 {
+            let x = cx + 2.0 * ((f64::from(a) + 0.5) / 8.0 - 0.5);
+            let y = cy + 2.0 * ((f64::from(b) + 0.5) / 8.0 - 0.5);
+            let r2 = (x - tx).powi(2) + y * y + 20.0f64.powi(2);
+            sum += (lambda / (4.0 * std::f64::consts::PI)).powi(2) / r2;
+        }
+    }
+    sum / 64.0
+}
+
+#[test]
+fn two_transmitters_get_best_server_sinr_and_their_own_maps() {
+    // Free space, two isotropic transmitters of equal power 50 m apart: each cell's best server
+    // is the nearer one, each transmitter's power is Friis, the SINR is the closed form
+    // P_near / (P_far + k T0 B F) from the two Friis powers, and the combined columns are the
+    // sum. Powers are low (-20 dBm) so that the noise (-101.0 dBm with F = 3 dB, B = 10 MHz)
+    // is comparable with the far transmitter's power over much of the grid.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = two_transmitters_in_free_space(dir.path());
+    let out = dir.path().join("out");
+    let (ok, stdout, err) = propsim(&[
+        "rf",
+        scene.to_str().unwrap(),
+        "--rays",
+        "8000000",
+        "--max-depth",
+        "0",
+        "--noise-figure-db",
+        "3",
+        "--bandwidth-mhz",
+        "10",
+        "--vmin-db",
+        "-100",
+        "--vmax-db",
+        "-50",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{err}");
+    assert!(stdout.contains("best_server.png"), "{stdout}");
+    let noise_dbm = 10.0 * (1.380_649e-23 * 290.0 * 10e6 * 1e3f64).log10() + 3.0;
+    assert!((noise_dbm + 100.975).abs() < 0.001, "{noise_dbm}");
+    let text = std::fs::read_to_string(out.join("coverage.csv")).unwrap();
+    let mut lines = text.lines();
+    assert_eq!(
+        lines.next(),
+        Some(
+            "x_m,y_m,z_m,path_gain_db,rx_power_dbm,paths,best_server,best_rx_power_dbm,sinr_db,\
+             rx_power_dbm_TXA,rx_power_dbm_TXB"
+        )
+    );
+    let lin = |db: f64| 10f64.powf(db / 10.0);
+    let (mut worst_friis, mut worst_sinr, mut worst_sum) = (0.0f64, 0.0f64, 0.0f64);
+    let (mut checked, mut near_bisector) = (0, 0);
+    for line in lines {
+        let r: Vec<&str> = line.split(',').collect();
+        assert_eq!(r.len(), 11, "{line}");
+        let num = |i: usize| r[i].parse::<f64>().unwrap_or_else(|_| panic!("{line}: column {i}"));
+        let (x, y) = (num(0), num(1));
+        let (pa, pb) = (num(9), num(10));
+        // Each transmitter's own power: -20 dBm + Friis.
+        let (fa, fb) = (friis_cell_average(x, y, -25.0), friis_cell_average(x, y, 25.0));
+        let (want_a, want_b) = (-20.0 + 10.0 * fa.log10(), -20.0 + 10.0 * fb.log10());
+        worst_friis = worst_friis.max((pa - want_a).abs()).max((pb - want_b).abs());
+        // The combined columns are the sum of the two maps (3-decimal rounding).
+        let sum_dbm = 10.0 * (lin(pa) + lin(pb)).log10();
+        worst_sum = worst_sum.max((num(4) - sum_dbm).abs()).max((num(3) - (sum_dbm + 20.0)).abs());
+        // The best server is the stronger of the two columns, with its power; the SINR is
+        // computed from them exactly.
+        let (best, best_p, other_p) = if pa >= pb { ("TXA", pa, pb) } else { ("TXB", pb, pa) };
+        assert_eq!(r[6], best, "{line}");
+        assert!((num(7) - best_p).abs() < 0.0015, "{line}");
+        let sinr_cols = best_p - 10.0 * (lin(other_p) + lin(noise_dbm)).log10();
+        assert!((num(8) - sinr_cols).abs() < 0.003, "{line}: {sinr_cols}");
+        // Against the closed form: the nearer transmitter, away from the bisector x = 0 (where
+        // the two Friis powers are within 1 dB).
+        if (want_a - want_b).abs() < 1.0 {
+            near_bisector += 1;
+            continue;
+        }
+        checked += 1;
+        let (near, p_near, p_far) =
+            if want_a > want_b { ("TXA", want_a, want_b) } else { ("TXB", want_b, want_a) };
+        assert_eq!(r[6], near, "{line}: the nearer transmitter serves");
+        assert_eq!(near == "TXA", x < 0.0);
+        let sinr = p_near - 10.0 * (lin(p_far) + lin(noise_dbm)).log10();
+        worst_sinr = worst_sinr.max((num(8) - sinr).abs());
+    }
+    eprintln!(
+        "two transmitters: {checked} cells off the bisector ({near_bisector} near it); worst \
+         error: Friis {worst_friis:.3} dB, SINR {worst_sinr:.3} dB, sum {worst_sum:.4} dB"
+    );
+    assert_eq!(checked + near_bisector, 60 * 30);
+    assert!(near_bisector < 100 && checked > 1700, "{near_bisector} {checked}");
+    assert!(worst_friis < 0.5, "per-transmitter power {worst_friis:.3} dB from Friis");
+    assert!(worst_sinr < 0.5, "SINR {worst_sinr:.3} dB from the closed form");
+    assert!(worst_sum < 0.003, "combined columns {worst_sum} dB from the sum");
+    for png in ["coverage.png", "coverage_TXA.png", "coverage_TXB.png", "best_server.png"] {
+        assert_eq!(&std::fs::read(out.join(png)).unwrap()[1..4], b"PNG", "{png}");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+    assert_eq!(json["colour_range_db"], serde_json::json!([-100.0, -50.0]));
+    assert!((json["config"]["noise"]["noise_power_dbm"].as_f64().unwrap() - noise_dbm).abs() < 1e-9);
+    assert!(json["servers"].as_str().unwrap().contains("k T0 B F"));
+    assert_eq!(json["physics"]["diffraction"], "off (not implemented)");
+    assert_eq!(json["physics"]["transmission"], "on (0.1 m slabs, default)");
+    assert_eq!(json["physics"]["extrapolate"], false);
+    assert_eq!(json["physics"]["max_depth"], 0);
+    assert_eq!(json["physics"]["rays_per_transmitter"], 8_000_000);
+    let maps = json["transmitter_maps"].as_array().unwrap();
+    assert_eq!(maps.len(), 2);
+    for m in maps {
+        assert_eq!(m["map"]["reached_cells"], 1800);
+        assert_eq!(m["best_server_cells"], 900, "{m}");
+    }
 }

@@ -8,8 +8,10 @@ use anyhow::Context as _;
 use clap::Args;
 
 use crate::dist::Cluster;
-use crate::rf::output::{summary, write_coverage_csv, write_receiver_outputs, write_summary_json};
-use crate::rf::plot::{PlotExtras, footprints, write_coverage_png};
+use crate::rf::output::{
+    best_servers, summary, write_coverage_csv, write_receiver_outputs, write_summary_json,
+};
+use crate::rf::plot::{PlotExtras, db_range, footprints, write_best_server_png, write_coverage_png};
 use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
 use crate::scene::{self, LoadOptions, World};
 
@@ -96,6 +98,20 @@ pub struct RfArgs {
     /// Skip the scene's point receivers.
     #[arg(long)]
     pub no_receivers: bool,
+    /// Receiver noise figure of the SINR column, dB (default 7; several transmitters).
+    #[arg(long, allow_hyphen_values = true)]
+    pub noise_figure_db: Option<f64>,
+    /// Receiver bandwidth of the SINR's thermal noise k T0 B F, MHz (default 20).
+    #[arg(long, allow_hyphen_values = true)]
+    pub bandwidth_mhz: Option<f64>,
+    /// Bottom of the coverage pictures' colour scale, dB of path gain (default: the top
+    /// minus 80 dB, or the lowest value if closer).
+    #[arg(long, allow_hyphen_values = true)]
+    pub vmin_db: Option<f64>,
+    /// Top of the coverage pictures' colour scale, dB of path gain (default: the highest
+    /// value rounded up to 5 dB).
+    #[arg(long, allow_hyphen_values = true)]
+    pub vmax_db: Option<f64>,
     /// Width of coverage.png, pixels.
     #[arg(long, default_value_t = 1000)]
     pub png_width: u32,
@@ -127,6 +143,10 @@ impl RfArgs {
             cfr_points: self.cfr_points,
             receivers: self.rx.clone(),
             no_receivers: self.no_receivers,
+            noise_figure_db: self.noise_figure_db,
+            bandwidth_mhz: self.bandwidth_mhz,
+            vmin_db: self.vmin_db,
+            vmax_db: self.vmax_db,
         }
     }
 }
@@ -144,7 +164,8 @@ fn progress_bar(total: u64) -> Option<indicatif::ProgressBar> {
     Some(super::progress::bar(total, "rays"))
 }
 
-/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`, and with point
+/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`; with several
+/// transmitters also `coverage_TX.png` per transmitter and `best_server.png`; with point
 /// receivers `paths.csv`, a `pdp_RECEIVER.png` each and (if asked) `cfr.csv`.
 pub fn write_outputs<'a>(
     out: &std::path::Path,
@@ -158,23 +179,77 @@ pub fn write_outputs<'a>(
     let csv = out.join("coverage.csv");
     let png = out.join("coverage.png");
     let json = out.join("coverage.json");
-    write_coverage_csv(&csv, result)?;
+    write_coverage_csv(&csv, config, result)?;
     let feet = footprints(&world.scene.mesh, config.grid.height_m);
     let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
+    let names: Vec<String> = config.transmitters.iter().map(|t| t.name.clone()).collect();
+    let subtitle = result.settings.line();
+    let title = |what: &str, freq_ghz: f64| {
+        format!("{scene_name} | {what} at {freq_ghz:.3} GHz | h = {} m", config.grid.height_m)
+    };
     let t0 = &config.transmitters[0];
-    let title = format!(
-        "{} | {} at {:.3} GHz | {} rays, depth {} | h = {} m",
-        scene_name, t0.name, t0.freq_ghz, config.rays, config.max_depth, config.grid.height_m
-    );
-    write_coverage_png(
-        &png,
-        &result.coverage,
-        &PlotExtras { title: &title, footprints: &feet, transmitters: &txs },
-        png_width,
-    )?;
+    let all_title = if names.len() == 1 {
+        title(&t0.name, t0.freq_ghz)
+    } else if config.transmitters.iter().all(|t| t.freq_ghz == t0.freq_ghz) {
+        title(&format!("{} transmitters (sum)", names.len()), t0.freq_ghz)
+    } else {
+        format!("{scene_name} | {} transmitters (sum) | h = {} m", names.len(), config.grid.height_m)
+    };
+    let extras = PlotExtras {
+        title: &all_title,
+        subtitle: &subtitle,
+        footprints: &feet,
+        transmitters: &txs,
+        transmitter_names: &names,
+    };
+    // One colour scale for every map, from the combined one, so the pictures compare.
+    let range = db_range(&result.coverage, &config.colour_range);
+    write_coverage_png(&png, &result.coverage, range, &extras, png_width)?;
+    let mut pictures = vec![png];
+    if names.len() > 1 {
+        let mut stems = std::collections::BTreeSet::new();
+        for (i, (t, tr)) in config.transmitters.iter().zip(&result.transmitters).enumerate() {
+            let mut stem = crate::io::file_stem(&t.name);
+            if !stems.insert(stem.clone()) {
+                stem = format!("{stem}_{}", i + 1);
+                stems.insert(stem.clone());
+            }
+            let p = out.join(format!("coverage_{stem}.png"));
+            let t_title = title(&t.name, t.freq_ghz);
+            write_coverage_png(
+                &p,
+                &tr.coverage,
+                range,
+                &PlotExtras { title: &t_title, ..extras },
+                png_width,
+            )?;
+            pictures.push(p);
+        }
+        let best: Vec<Option<usize>> =
+            best_servers(config, result).into_iter().map(|b| b.map(|b| b.index)).collect();
+        let p = out.join("best_server.png");
+        let b_title = format!(
+            "{scene_name} | best server of {} transmitters | h = {} m",
+            names.len(),
+            config.grid.height_m
+        );
+        write_best_server_png(
+            &p,
+            config.grid,
+            &best,
+            &names,
+            &PlotExtras { title: &b_title, ..extras },
+            png_width,
+        )?;
+        pictures.push(p);
+    }
     let receiver_files = write_receiver_outputs(out, config, result)?;
-    let outputs =
-        [&csv, &png, &json].into_iter().chain(&receiver_files).map(|p| p.display().to_string()).collect();
+    let outputs = std::iter::once(&csv)
+        .chain(&pictures)
+        .chain(std::iter::once(&json))
+        .chain(&receiver_files)
+        .map(|p| p.display().to_string())
+        .collect();
     let s = summary(scene_name, config, result, outputs);
     write_summary_json(&json, &s)?;
     Ok(s)
@@ -226,6 +301,14 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         );
     }
     say!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    if config.transmitters.len() > 1 {
+        say!(
+            "wrote coverage_TX.png for each of {} transmitters and best_server.png in {}; coverage.csv has best_server, best_rx_power_dbm, sinr_db (noise {:.2} dBm) and rx_power_dbm_TX",
+            config.transmitters.len(),
+            args.out.display(),
+            config.noise.noise_power_dbm
+        );
+    }
     if !config.receivers.is_empty() {
         let cfr = if config.cfr.is_some() { ", cfr.csv" } else { "" };
         say!(

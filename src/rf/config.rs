@@ -30,6 +30,14 @@ pub const DEFAULT_WALL_THICKNESS_M: f64 = 0.1;
 pub const MAX_CFR_POINTS: usize = 1_000_000;
 /// Longest ray path, metres (rays leaving an open scene end here).
 pub const MAX_PATH_M: f64 = 100_000.0;
+/// Receiver noise figure when none is given, dB (docs/radio.md, "Several transmitters").
+pub const DEFAULT_NOISE_FIGURE_DB: f64 = 7.0;
+/// Receiver bandwidth of the SINR's thermal noise when none is given, MHz.
+pub const DEFAULT_BANDWIDTH_MHZ: f64 = 20.0;
+/// Reference temperature of the thermal noise `k T0 B F`, kelvin (the noise figure's).
+pub const NOISE_TEMPERATURE_K: f64 = 290.0;
+/// Boltzmann's constant, J/K (exact in the 2019 SI).
+pub const BOLTZMANN_J_PER_K: f64 = 1.380_649e-23;
 
 /// A transmitter ready to simulate.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -73,6 +81,13 @@ pub struct Overrides {
     pub receivers: Vec<[f32; 3]>,
     /// Ignore the scene's point receivers.
     pub no_receivers: bool,
+    /// Receiver noise figure, dB (default [`DEFAULT_NOISE_FIGURE_DB`]).
+    pub noise_figure_db: Option<f64>,
+    /// Receiver bandwidth, MHz (default [`DEFAULT_BANDWIDTH_MHZ`]).
+    pub bandwidth_mhz: Option<f64>,
+    /// Bottom and top of the coverage pictures' colour scale, dB of path gain.
+    pub vmin_db: Option<f64>,
+    pub vmax_db: Option<f64>,
 }
 
 /// Everything a simulation needs besides the world.
@@ -93,6 +108,87 @@ pub struct RfConfig {
     pub receivers: Vec<PointReceiver>,
     /// The channel frequency response to write at the point receivers, if asked.
     pub cfr: Option<CfrSpec>,
+    /// The receiver noise of the SINR column (several transmitters).
+    pub noise: NoiseSpec,
+    /// The coverage pictures' colour scale.
+    pub colour_range: ColourRange,
+}
+
+/// Thermal noise at a receiver, `N = k T0 B F` (`T0` = 290 K): what the SINR adds to the
+/// other transmitters' power.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct NoiseSpec {
+    pub noise_figure_db: f64,
+    pub bandwidth_hz: f64,
+    pub temperature_k: f64,
+    /// `10 log10(k T0 B F / 1 mW)`.
+    pub noise_power_dbm: f64,
+}
+
+impl NoiseSpec {
+    pub fn new(noise_figure_db: f64, bandwidth_hz: f64) -> Self {
+        let watts = BOLTZMANN_J_PER_K * NOISE_TEMPERATURE_K * bandwidth_hz;
+        Self {
+            noise_figure_db,
+            bandwidth_hz,
+            temperature_k: NOISE_TEMPERATURE_K,
+            noise_power_dbm: 10.0 * (watts * 1e3).log10() + noise_figure_db,
+        }
+    }
+
+    /// The noise power, mW.
+    pub fn power_mw(&self) -> f64 {
+        10f64.powf(self.noise_power_dbm / 10.0)
+    }
+}
+
+/// The colour scale of the coverage pictures, dB of path gain: each end given
+/// (`--vmin-db`, `--vmax-db`) or automatic (`None`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct ColourRange {
+    pub vmin_db: Option<f64>,
+    pub vmax_db: Option<f64>,
+}
+
+/// Span of the automatic colour scale, dB.
+pub const AUTO_RANGE_DB: f64 = 80.0;
+
+impl ColourRange {
+    /// Checks the given ends: finite, and `vmin < vmax` when both are given.
+    pub fn new(vmin_db: Option<f64>, vmax_db: Option<f64>) -> Result<Self, String> {
+        for (v, flag) in [(vmin_db, "--vmin-db"), (vmax_db, "--vmax-db")] {
+            if let Some(v) = v.filter(|v| !v.is_finite()) {
+                return Err(format!("{flag} {v}: must be a finite number of dB"));
+            }
+        }
+        if let (Some(lo), Some(hi)) = (vmin_db, vmax_db)
+            && lo >= hi
+        {
+            return Err(format!("--vmin-db {lo} must be below --vmax-db {hi}"));
+        }
+        Ok(Self { vmin_db, vmax_db })
+    }
+
+    /// The range to draw, given the map's highest and lowest reached values (dB; `None` for
+    /// an empty map). Automatic: from the highest value rounded up to 5 dB down
+    /// [`AUTO_RANGE_DB`], or to the lowest rounded down to 5 dB if closer. A given end
+    /// replaces the automatic one; when the other automatic end would then fall on the wrong
+    /// side, the range is [`AUTO_RANGE_DB`] wide from the given end.
+    pub fn resolve(&self, extent_db: Option<(f64, f64)>) -> Option<(f64, f64)> {
+        let auto = extent_db.map(|(lo, hi)| {
+            let hi = (hi / 5.0).ceil() * 5.0;
+            let lo = ((lo.max(hi - AUTO_RANGE_DB)) / 5.0).floor() * 5.0;
+            (lo, if hi > lo { hi } else { lo + 5.0 })
+        });
+        match (self.vmin_db, self.vmax_db, auto) {
+            (Some(lo), Some(hi), _) => Some((lo, hi)),
+            (Some(lo), None, Some((_, hi))) if hi > lo => Some((lo, hi)),
+            (Some(lo), None, _) => Some((lo, lo + AUTO_RANGE_DB)),
+            (None, Some(hi), Some((lo, _))) if lo < hi => Some((lo, hi)),
+            (None, Some(hi), _) => Some((hi - AUTO_RANGE_DB, hi)),
+            (None, None, auto) => auto,
+        }
+    }
 }
 
 /// Frequency points of a channel frequency response when only the bandwidth is given.
@@ -236,6 +332,22 @@ impl RfConfig {
                 Some(CfrSpec { bandwidth_hz, points: points as usize })
             }
         };
+        let mut names = std::collections::BTreeSet::new();
+        for t in &transmitters {
+            if !names.insert(t.name.as_str()) {
+                return Err(format!(
+                    "transmitter name \"{}\" is used twice: names must be unique (they name coverage.csv's columns)",
+                    t.name
+                ));
+            }
+        }
+        let noise_figure_db = o.noise_figure_db.unwrap_or(DEFAULT_NOISE_FIGURE_DB);
+        if !noise_figure_db.is_finite() || noise_figure_db < 0.0 {
+            return Err(format!("--noise-figure-db {noise_figure_db}: must be a number of dB, 0 or more"));
+        }
+        let bandwidth_mhz = positive(o.bandwidth_mhz.unwrap_or(DEFAULT_BANDWIDTH_MHZ), "--bandwidth-mhz")?;
+        let noise = NoiseSpec::new(noise_figure_db, bandwidth_mhz * 1e6);
+        let colour_range = ColourRange::new(o.vmin_db, o.vmax_db)?;
         let mut receivers: Vec<PointReceiver> = if o.no_receivers {
             Vec::new()
         } else {
@@ -265,6 +377,41 @@ impl RfConfig {
             max_path_m: MAX_PATH_M,
             receivers,
             cfr,
+            noise,
+            colour_range,
         })
+    }
+}
+
+#[cfg(test)]
+mod colour_range_tests {
+    use super::*;
+
+    #[test]
+    fn colour_range_is_automatic_or_given_and_checked() {
+        let auto = ColourRange::default();
+        // 80 dB down from the top rounded up to 5 dB, or the bottom if closer.
+        assert_eq!(auto.resolve(Some((-143.2, -61.3))), Some((-140.0, -60.0)));
+        assert_eq!(auto.resolve(Some((-90.2, -61.3))), Some((-95.0, -60.0)));
+        assert_eq!(auto.resolve(None), None);
+        let both = ColourRange::new(Some(-120.0), Some(-40.0)).unwrap();
+        assert_eq!(both.resolve(Some((-90.0, -60.0))), Some((-120.0, -40.0)));
+        assert_eq!(both.resolve(None), Some((-120.0, -40.0)));
+        let lo = ColourRange::new(Some(-100.0), None).unwrap();
+        assert_eq!(lo.resolve(Some((-143.2, -61.3))), Some((-100.0, -60.0)));
+        assert_eq!(lo.resolve(Some((-143.2, -101.3))), Some((-100.0, -20.0)));
+        let hi = ColourRange::new(None, Some(-70.0)).unwrap();
+        assert_eq!(hi.resolve(Some((-143.2, -61.3))), Some((-140.0, -70.0)));
+        assert_eq!(hi.resolve(Some((-43.2, -21.3))), Some((-150.0, -70.0)));
+        assert!(ColourRange::new(Some(f64::NAN), None).is_err());
+        assert!(ColourRange::new(None, Some(f64::INFINITY)).is_err());
+        assert!(ColourRange::new(Some(-50.0), Some(-50.0)).is_err());
+    }
+
+    #[test]
+    fn thermal_noise_is_k_t0_b_f() {
+        // -174 dBm/Hz at 290 K: 20 MHz adds 73.01 dB, a 7 dB noise figure 7 dB.
+        let n = NoiseSpec::new(7.0, 20e6);
+        assert!((n.noise_power_dbm - (-173.975 + 73.010 + 7.0)).abs() < 1e-3, "{}", n.noise_power_dbm);
     }
 }

@@ -23,7 +23,7 @@ pub mod propagation;
 pub mod receivers;
 
 pub use antenna::{Antenna, Polarization};
-pub use config::{Overrides, RfConfig, Transmitter};
+pub use config::{ColourRange, NoiseSpec, Overrides, RfConfig, Transmitter};
 pub use coverage::{Coverage, CoverageAccumulator, GridSpec};
 
 use glam::DVec3;
@@ -128,6 +128,10 @@ pub struct SurfaceRadio {
 #[derive(Clone, Debug)]
 pub struct TransmitterResult {
     pub name: String,
+    /// Transmit power, mW.
+    pub power_mw: f64,
+    /// This transmitter's own map (path gain, linear, and ray crossings per cell).
+    pub coverage: Coverage,
     /// The surfaces' radio constants at this transmitter's frequency (surfaces in use only).
     pub surfaces: Vec<SurfaceRadio>,
     /// Coherent paths at each receiver of the config, in order.
@@ -142,12 +146,119 @@ pub struct TransmitterResult {
 pub struct RfResult {
     /// Path gain summed over the transmitters (linear) and ray crossings per cell.
     pub coverage: Coverage,
+    /// The propagation settings, in words.
+    pub settings: PhysicsSettings,
     /// Received power per cell, mW, summed over the transmitters.
     pub rx_power_mw: Vec<f64>,
     pub transmitters: Vec<TransmitterResult>,
     /// Name of every surface of the scene, by `SurfaceId` (for the paths' interactions).
     pub surface_names: Vec<String>,
     pub seconds: f64,
+}
+
+impl RfResult {
+    /// The best server of `cell`: the transmitter with the highest received power there
+    /// (the first one on a tie), `None` where no transmitter reaches the cell.
+    pub fn best_server(&self, cell: usize, noise: &NoiseSpec) -> Option<BestServer> {
+        let power = |t: &TransmitterResult| t.power_mw * t.coverage.path_gain[cell];
+        let mut best: Option<(usize, f64)> = None;
+        for (i, t) in self.transmitters.iter().enumerate() {
+            let p = power(t);
+            if p > 0.0 && best.is_none_or(|(_, b)| p > b) {
+                best = Some((i, p));
+            }
+        }
+        let (index, power_mw) = best?;
+        let interference_mw: f64 =
+            self.transmitters.iter().enumerate().filter(|&(i, _)| i != index).map(|(_, t)| power(t)).sum();
+        Some(BestServer { index, power_mw, sinr: power_mw / (interference_mw + noise.power_mw()) })
+    }
+}
+
+/// The strongest transmitter at a cell and its signal to interference plus noise ratio.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BestServer {
+    /// Index of the transmitter in the config.
+    pub index: usize,
+    /// Its received power, mW.
+    pub power_mw: f64,
+    /// `P_best / (sum of the other transmitters' P + N)`, linear: every other transmitter
+    /// counts as a co-channel interferer, `N = k T0 B F` ([`NoiseSpec`]).
+    pub sinr: f64,
+}
+
+/// What a map was computed with, in words: the picture's title and `coverage.json` say it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PhysicsSettings {
+    pub rays_per_transmitter: u64,
+    pub max_depth: u32,
+    /// ITU-R P.2040 fits used outside their frequency ranges (`--extrapolate`).
+    pub extrapolate: bool,
+    /// `on (THICKNESS, SOURCE)` or `off (opaque walls)`.
+    pub transmission: String,
+    pub diffraction: &'static str,
+}
+
+impl PhysicsSettings {
+    /// The settings of `config` over `world` (the surfaces in use give the thicknesses).
+    pub fn of(world: &World, config: &RfConfig) -> Self {
+        Self {
+            rays_per_transmitter: config.rays,
+            max_depth: config.max_depth,
+            extrapolate: config.extrapolate,
+            transmission: transmission_text(world, config),
+            diffraction: "off (not implemented)",
+        }
+    }
+
+    /// One line for a picture's title.
+    pub fn line(&self) -> String {
+        format!(
+            "{} rays/tx, depth {} | transmission {} | diffraction {} | extrapolate {}",
+            self.rays_per_transmitter,
+            self.max_depth,
+            self.transmission,
+            self.diffraction,
+            if self.extrapolate { "on" } else { "off" }
+        )
+    }
+}
+
+/// `on (0.1 m slabs, default)` and the like: the walls' thickness and where it comes from.
+fn transmission_text(world: &World, config: &RfConfig) -> String {
+    if !config.transmission {
+        return "off (opaque walls)".into();
+    }
+    let used: std::collections::BTreeSet<u32> =
+        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let given: Vec<Option<f64>> = used
+        .iter()
+        .filter_map(|&id| world.scene.surfaces.get(id as usize))
+        .map(|s| s.material.as_ref().and_then(|m| m.thickness_m))
+        .collect();
+    let source = if config.wall_thickness_m.is_some() {
+        "--wall-thickness-m"
+    } else if given.iter().all(Option::is_none) {
+        "default"
+    } else if given.iter().all(Option::is_some) {
+        "materials' thickness_m"
+    } else {
+        "materials' thickness_m, else 0.1 m default"
+    };
+    let thicknesses: Vec<f64> = surface_thicknesses(world, config.wall_thickness_m)
+        .into_iter()
+        .enumerate()
+        .filter(|(id, _)| used.contains(&(*id as u32)))
+        .map(|(_, d)| d)
+        .collect();
+    let lo = thicknesses.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = thicknesses.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let d = config.wall_thickness_m.unwrap_or(config::DEFAULT_WALL_THICKNESS_M);
+    if !lo.is_finite() || lo == hi {
+        format!("on ({} m slabs, {source})", if lo.is_finite() { lo } else { d })
+    } else {
+        format!("on ({lo}-{hi} m slabs, {source})")
+    }
 }
 
 /// Runs every transmitter of `config` over `world`; `progress` gets the number of rays done.
@@ -210,12 +321,12 @@ pub fn simulate_on(
             continue;
         }
         let trace_seconds = t0.elapsed().as_secs_f64();
-        if let Some(c) = tx_cov {
-            let p_mw = 10f64.powf(tx.power_dbm / 10.0);
+        let p_mw = 10f64.powf(tx.power_dbm / 10.0);
+        if let Some(c) = &tx_cov {
             for (acc, g) in rx_power_mw.iter_mut().zip(&c.path_gain) {
                 *acc += p_mw * g;
             }
-            coverage.add(&c);
+            coverage.add(c);
         }
         let receiver_depth = affordable_order(planes.len(), config.max_depth);
         let receivers = config
@@ -258,6 +369,8 @@ pub fn simulate_on(
             .collect();
         transmitters.push(TransmitterResult {
             name: tx.name.clone(),
+            power_mw: p_mw,
+            coverage: tx_cov.unwrap_or_else(|| Coverage::empty(config.grid)),
             surfaces,
             receivers,
             receiver_depth,
@@ -270,6 +383,7 @@ pub fn simulate_on(
     let surface_names = world.scene.surfaces.iter().map(|s| s.name.clone()).collect();
     Ok(Some(RfResult {
         coverage,
+        settings: PhysicsSettings::of(world, config),
         rx_power_mw,
         transmitters,
         surface_names,

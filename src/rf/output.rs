@@ -20,31 +20,70 @@ grid height, each ray carrying P_tx G_tx(dir) / N times its product of |Gamma|^2
 summed over transmitters. rx_power_dbm = 10 log10(sum over transmitters of P_tx g). paths = ray \
 crossings of the cell. Empty values: no ray reached the cell.";
 
-/// The CSV columns, exactly.
+/// What the columns added with several transmitters mean, repeated in the JSON summary.
+pub const SERVERS: &str = "With several transmitters: best_server = the transmitter with the \
+highest received power P_t = P_tx,t g_t in the cell (the first on a tie), best_rx_power_dbm its \
+P_t, sinr_db = 10 log10(P_best / (sum of the other transmitters' P_t + N)), every other transmitter \
+counting as a co-channel interferer, with the thermal noise N = k T0 B F (T0 = 290 K, \
+noise.bandwidth_hz B, noise.noise_figure_db F; noise.noise_power_dbm); rx_power_dbm_NAME = one \
+transmitter's P_t. Empty values: no ray of that transmitter (or of any, for the best server) \
+reached the cell.";
+
+/// The CSV columns, exactly, for one transmitter; several add [`server_columns`].
 pub const CSV_COLUMNS: [&str; 6] = ["x_m", "y_m", "z_m", "path_gain_db", "rx_power_dbm", "paths"];
+
+/// The columns `coverage.csv` adds after [`CSV_COLUMNS`] for the transmitters `names`: none
+/// for one transmitter; for several `best_server`, `best_rx_power_dbm`, `sinr_db` and
+/// `rx_power_dbm_NAME` per transmitter, in order.
+pub fn server_columns(names: &[String]) -> Vec<String> {
+    if names.len() < 2 {
+        return Vec::new();
+    }
+    let mut v: Vec<String> = ["best_server", "best_rx_power_dbm", "sinr_db"].map(String::from).to_vec();
+    v.extend(names.iter().map(|n| format!("rx_power_dbm_{n}")));
+    v
+}
+
+/// The best server of every cell (`None` where no transmitter reaches it).
+pub fn best_servers(config: &RfConfig, result: &RfResult) -> Vec<Option<super::BestServer>> {
+    (0..result.coverage.spec.cells()).map(|c| result.best_server(c, &config.noise)).collect()
+}
 
 fn db(v: f64) -> String {
     if v > 0.0 { format!("{:.3}", 10.0 * v.log10()) } else { String::new() }
 }
 
 /// Writes `coverage.csv`: one row per cell centre, x fastest; unreached cells have empty
-/// `path_gain_db` and `rx_power_dbm`.
-pub fn write_coverage_csv(path: &Path, result: &RfResult) -> anyhow::Result<()> {
+/// `path_gain_db` and `rx_power_dbm`. With several transmitters the row goes on with the
+/// [`server_columns`] ([`SERVERS`]).
+pub fn write_coverage_csv(path: &Path, config: &RfConfig, result: &RfResult) -> anyhow::Result<()> {
     let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
-    w.write_record(CSV_COLUMNS)?;
+    let names: Vec<String> = result.transmitters.iter().map(|t| t.name.clone()).collect();
+    let servers = server_columns(&names);
+    w.write_record(CSV_COLUMNS.iter().map(|c| c.to_string()).chain(servers.iter().cloned()))?;
     let cov = &result.coverage;
     let z = format!("{:.3}", cov.spec.height_m);
+    let mut row = Vec::with_capacity(CSV_COLUMNS.len() + servers.len());
     for i in 0..cov.spec.cells() {
         let [x, y] = cov.spec.centre(i);
         let reached = cov.path_gain[i] > 0.0;
-        w.write_record([
+        row.clear();
+        row.extend([
             format!("{x:.3}"),
             format!("{y:.3}"),
             z.clone(),
             db(cov.path_gain[i]),
             if reached { db(result.rx_power_mw[i]) } else { String::new() },
             cov.paths[i].to_string(),
-        ])?;
+        ]);
+        if !servers.is_empty() {
+            match result.best_server(i, &config.noise) {
+                Some(b) => row.extend([names[b.index].clone(), db(b.power_mw), db(b.sinr)]),
+                None => row.extend([String::new(), String::new(), String::new()]),
+            }
+            row.extend(result.transmitters.iter().map(|t| db(t.power_mw * t.coverage.path_gain[i])));
+        }
+        w.write_record(&row)?;
     }
     w.flush().with_context(|| format!("{}", path.display()))?;
     Ok(())
@@ -66,7 +105,7 @@ pub struct ReceiverSummary {
     pub incoherent_path_gain_db: Option<f64>,
     /// Transmit power plus the coherent path gain, dBm.
     pub coherent_rx_power_dbm: Option<f64>,
-    /// The coverage grid's value in the cell holding the receiver (all transmitters).
+    /// This transmitter's own coverage map in the cell holding the receiver.
     pub grid_path_gain_db: Option<f64>,
 }
 
@@ -89,17 +128,38 @@ pub struct MapStats {
     pub total_ray_crossings: u64,
 }
 
+/// One transmitter's own map.
+#[derive(Serialize, Debug)]
+pub struct TransmitterMap {
+    pub transmitter: String,
+    pub map: MapStats,
+    /// Cells where this transmitter is the best server (several transmitters only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub best_server_cells: Option<usize>,
+}
+
 /// The JSON summary: every parameter, the estimator, timings and receivers.
 #[derive(Serialize, Debug)]
 pub struct Summary<'a> {
     pub propsim_version: &'static str,
     pub scene: String,
     pub estimator: &'static str,
+    /// The best-server and SINR columns' definition (several transmitters only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub servers: Option<&'static str>,
+    /// Rays, depth, extrapolation, transmission (with the walls' thickness and its source)
+    /// and diffraction, in words.
+    pub physics: super::PhysicsSettings,
     pub config: &'a RfConfig,
+    /// The colour scale of the coverage pictures, dB of path gain (`null`: empty map).
+    pub colour_range_db: Option<[f64; 2]>,
     pub threads: usize,
     pub seconds: f64,
     pub rays_per_second: f64,
+    /// The combined map (all transmitters).
     pub map: MapStats,
+    /// Each transmitter's own map.
+    pub transmitter_maps: Vec<TransmitterMap>,
     /// Per transmitter: the surfaces' complex permittivities at its carrier.
     pub surfaces: Vec<TransmitterSurfaces>,
     pub receivers: Vec<ReceiverSummary>,
@@ -110,6 +170,20 @@ fn opt_db(v: f64) -> Option<f64> {
     (v > 0.0).then(|| (1e4 * 10.0 * v.log10()).round() / 1e4)
 }
 
+/// The statistics of one map.
+pub fn map_stats(cov: &super::Coverage) -> MapStats {
+    let mut reached: Vec<f64> = cov.path_gain.iter().copied().filter(|&g| g > 0.0).collect();
+    reached.sort_by(f64::total_cmp);
+    MapStats {
+        cells: cov.spec.cells(),
+        reached_cells: reached.len(),
+        max_path_gain_db: reached.last().copied().and_then(opt_db),
+        min_path_gain_db: reached.first().copied().and_then(opt_db),
+        median_path_gain_db: reached.get(reached.len() / 2).copied().and_then(opt_db),
+        total_ray_crossings: cov.paths.iter().map(|&p| u64::from(p)).sum(),
+    }
+}
+
 /// Builds the summary of a run.
 pub fn summary<'a>(
     scene: &str,
@@ -118,16 +192,24 @@ pub fn summary<'a>(
     outputs: Vec<String>,
 ) -> Summary<'a> {
     let cov = &result.coverage;
-    let mut reached: Vec<f64> = cov.path_gain.iter().copied().filter(|&g| g > 0.0).collect();
-    reached.sort_by(f64::total_cmp);
-    let map = MapStats {
-        cells: cov.spec.cells(),
-        reached_cells: reached.len(),
-        max_path_gain_db: reached.last().copied().and_then(opt_db),
-        min_path_gain_db: reached.first().copied().and_then(opt_db),
-        median_path_gain_db: reached.get(reached.len() / 2).copied().and_then(opt_db),
-        total_ray_crossings: cov.paths.iter().map(|&p| u64::from(p)).sum(),
-    };
+    let map = map_stats(cov);
+    let several = result.transmitters.len() > 1;
+    let mut served = vec![0usize; result.transmitters.len()];
+    if several {
+        for b in best_servers(config, result).into_iter().flatten() {
+            served[b.index] += 1;
+        }
+    }
+    let transmitter_maps = result
+        .transmitters
+        .iter()
+        .zip(&served)
+        .map(|(t, &n)| TransmitterMap {
+            transmitter: t.name.clone(),
+            map: map_stats(&t.coverage),
+            best_server_cells: several.then_some(n),
+        })
+        .collect();
     let mut receivers = Vec::new();
     for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
         for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
@@ -142,7 +224,7 @@ pub fn summary<'a>(
                 coherent_path_gain_db: opt_db(ps.coherent_gain),
                 incoherent_path_gain_db: opt_db(ps.incoherent_gain),
                 coherent_rx_power_dbm: opt_db(ps.coherent_gain).map(|g| g + t.power_dbm),
-                grid_path_gain_db: cell.and_then(|c| opt_db(cov.path_gain[c])),
+                grid_path_gain_db: cell.and_then(|c| opt_db(tr.coverage.path_gain[c])),
             });
         }
     }
@@ -151,7 +233,10 @@ pub fn summary<'a>(
         propsim_version: env!("CARGO_PKG_VERSION"),
         scene: scene.to_string(),
         estimator: ESTIMATOR,
+        servers: several.then_some(SERVERS),
+        physics: result.settings.clone(),
         config,
+        colour_range_db: super::plot::db_range(cov, &config.colour_range).map(|(lo, hi)| [lo, hi]),
         threads: rayon::current_num_threads(),
         seconds: result.seconds,
         rays_per_second: if trace > 0.0 {
@@ -160,6 +245,7 @@ pub fn summary<'a>(
             0.0
         },
         map,
+        transmitter_maps,
         surfaces: config
             .transmitters
             .iter()

@@ -1,13 +1,16 @@
-//! `coverage.png`: the path-gain map as a heat map with a dB colour bar, the buildings'
-//! footprints (the walls cut at the grid height) and the transmitters, drawn with plotters
+//! `coverage.png` (and `coverage_TX.png` per transmitter): the path-gain map as a heat map
+//! with a dB colour bar, the buildings' footprints (the walls cut at the grid height) and the
+//! transmitters; `best_server.png` in the transmitters' colours; drawn with plotters
 //! into an RGB buffer and written with `png`. Text uses DejaVu Sans shipped in
 //! `assets/fonts` (its licence is next to it).
 
 use std::path::Path;
 
 use plotters::prelude::*;
+use plotters::style::text_anchor;
 
-use super::coverage::Coverage;
+use super::config::ColourRange;
+use super::coverage::{Coverage, GridSpec};
 use crate::core::TriangleMesh;
 use crate::io::plot::{register_font, write_rgb_png};
 
@@ -60,13 +63,16 @@ pub fn footprints(mesh: &TriangleMesh, h: f64) -> Vec<[(f64, f64); 2]> {
 /// What to draw besides the map.
 pub struct PlotExtras<'a> {
     pub title: &'a str,
+    /// A second, smaller title line (the propagation settings).
+    pub subtitle: &'a str,
     pub footprints: &'a [[(f64, f64); 2]],
-    /// Transmitter (x, y) positions.
+    /// Transmitter (x, y) positions and names.
     pub transmitters: &'a [(f64, f64)],
+    pub transmitter_names: &'a [String],
 }
 
-/// The colour scale's range, dB: from the maximum down 80 dB, or to the minimum if closer.
-pub fn db_range(cov: &Coverage) -> Option<(f64, f64)> {
+/// The highest and lowest reached value of the map, dB (`None` when no cell is reached).
+pub fn map_extent_db(cov: &Coverage) -> Option<(f64, f64)> {
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
     for &g in cov.path_gain.iter().filter(|&&g| g > 0.0) {
@@ -74,38 +80,58 @@ pub fn db_range(cov: &Coverage) -> Option<(f64, f64)> {
         lo = lo.min(d);
         hi = hi.max(d);
     }
-    if !hi.is_finite() {
-        return None;
-    }
-    let hi = (hi / 5.0).ceil() * 5.0;
-    let lo = ((lo.max(hi - 80.0)) / 5.0).floor() * 5.0;
-    Some((lo, if hi > lo { hi } else { lo + 5.0 }))
+    hi.is_finite().then_some((lo, hi))
 }
 
-/// Draws the map into an RGB image of about `width` pixels and writes it as PNG.
-pub fn write_coverage_png(
+/// The colour scale's range, dB, for `cov`: [`ColourRange::resolve`] over its extent (by
+/// default from the maximum down 80 dB, or to the minimum if closer).
+pub fn db_range(cov: &Coverage, range: &ColourRange) -> Option<(f64, f64)> {
+    range.resolve(map_extent_db(cov))
+}
+
+/// What the strip right of the map explains.
+enum Legend<'a> {
+    /// A colour bar from `lo` to `hi` dB.
+    Bar { lo: f64, hi: f64, label: &'a str },
+    /// One swatch per category.
+    Categories(&'a [(String, RGBColor)]),
+}
+
+/// Grey of the cells no ray reached.
+const EMPTY: RGBColor = RGBColor(200, 200, 200);
+
+/// Draws the map of `colour` per cell (`None`: grey) with `legend` into an RGB image of
+/// about `width` pixels and writes it as PNG.
+fn write_map_png(
     path: &Path,
-    cov: &Coverage,
+    spec: GridSpec,
+    colour: &dyn Fn(usize) -> Option<RGBColor>,
+    legend: Option<Legend>,
     extras: &PlotExtras,
     width: u32,
 ) -> anyhow::Result<()> {
     register_font();
-    let spec = cov.spec;
     let (x0, y0) = (spec.min_m[0], spec.min_m[1]);
     let (x1, y1) = (x0 + spec.nx as f64 * spec.cell_m, y0 + spec.ny as f64 * spec.cell_m);
-    let (left, right, top, bottom) = (70u32, 120u32, 40u32, 50u32);
+    let (left, right, top, bottom) = (70u32, 130u32, 56u32, 50u32);
     let map_w = width.saturating_sub(left + right).max(100);
     let map_h = ((f64::from(map_w) * (y1 - y0) / (x1 - x0)).round() as u32).clamp(100, 1600);
     let (w, h) = (left + map_w + right, top + map_h + bottom);
     let mut buf = vec![255u8; (w * h * 3) as usize];
-    let range = db_range(cov);
     {
         let root = BitMapBackend::with_buffer(&mut buf, (w, h)).into_drawing_area();
         root.fill(&WHITE)?;
+        let centred = |size: i32| {
+            ("sans-serif", size)
+                .into_font()
+                .color(&BLACK)
+                .pos(text_anchor::Pos::new(text_anchor::HPos::Center, text_anchor::VPos::Top))
+        };
+        root.draw(&Text::new(extras.title, ((w / 2) as i32, 6), centred(18)))?;
+        root.draw(&Text::new(extras.subtitle, ((w / 2) as i32, 30), centred(13)))?;
         let (main, bar) = root.split_horizontally(w - right + 10);
         let mut chart = ChartBuilder::on(&main)
-            .caption(extras.title, ("sans-serif", 18))
-            .margin_top(8)
+            .margin_top(top)
             .margin_right(10)
             .x_label_area_size(bottom - 8)
             .y_label_area_size(left - 8)
@@ -124,13 +150,8 @@ pub fn write_coverage_png(
             for px in 0..pw {
                 let x = x0 + (f64::from(px) + 0.5) / f64::from(pw) * (x1 - x0);
                 let y = y1 - (f64::from(py) + 0.5) / f64::from(ph) * (y1 - y0);
-                let color = match (spec.cell_of(x, y), range) {
-                    (Some(c), Some((lo, hi))) if cov.path_gain[c] > 0.0 => {
-                        colormap((10.0 * cov.path_gain[c].log10() - lo) / (hi - lo))
-                    }
-                    _ => RGBColor(200, 200, 200),
-                };
-                area.draw_pixel((px as i32, py as i32), &color)?;
+                let c = spec.cell_of(x, y).and_then(colour).unwrap_or(EMPTY);
+                area.draw_pixel((px as i32, py as i32), &c)?;
             }
         }
         for seg in extras.footprints {
@@ -139,42 +160,103 @@ pub fn write_coverage_png(
                 WHITE.stroke_width(2),
             )))?;
         }
-        for &(x, y) in extras.transmitters {
+        for (i, &(x, y)) in extras.transmitters.iter().enumerate() {
             chart.draw_series(std::iter::once(Cross::new((x, y), 6, RED.stroke_width(2))))?;
+            if extras.transmitters.len() > 1
+                && let Some(name) = extras.transmitter_names.get(i)
+            {
+                let label = EmptyElement::at((x, y)) + Text::new(name.clone(), (8, -16), ("sans-serif", 13));
+                chart.draw_series(std::iter::once(label))?;
+            }
         }
-        // The colour bar.
-        if let Some((lo, hi)) = range {
-            let bar_x = 10i32;
-            let bar_w = 22i32;
-            let (by0, by1) = (top as i32 + 8, (top + map_h) as i32 - 8);
-            for py in by0..=by1 {
-                let t = 1.0 - f64::from(py - by0) / f64::from(by1 - by0);
-                bar.draw(&Rectangle::new([(bar_x, py), (bar_x + bar_w, py + 1)], colormap(t).filled()))?;
+        let (by0, by1) = (top as i32 + 8, (top + map_h) as i32 - 8);
+        match legend {
+            Some(Legend::Bar { lo, hi, label }) => {
+                let bar_x = 10i32;
+                let bar_w = 22i32;
+                for py in by0..=by1 {
+                    let t = 1.0 - f64::from(py - by0) / f64::from(by1 - by0);
+                    bar.draw(&Rectangle::new([(bar_x, py), (bar_x + bar_w, py + 1)], colormap(t).filled()))?;
+                }
+                bar.draw(&Rectangle::new([(bar_x, by0), (bar_x + bar_w, by1 + 1)], BLACK.stroke_width(1)))?;
+                let step = if hi - lo > 50.0 { 10.0 } else { 5.0 };
+                let mut v = (lo / step).ceil() * step;
+                while v <= hi + 1e-9 {
+                    let py = by1 - ((v - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
+                    bar.draw(&PathElement::new(vec![(bar_x + bar_w, py), (bar_x + bar_w + 4, py)], BLACK))?;
+                    bar.draw(&Text::new(format!("{v:.0}"), (bar_x + bar_w + 7, py - 7), ("sans-serif", 13)))?;
+                    v += step;
+                }
+                bar.draw(&Text::new(label, (bar_x - 4, by0 - 20), ("sans-serif", 13)))?;
             }
-            bar.draw(&Rectangle::new([(bar_x, by0), (bar_x + bar_w, by1 + 1)], BLACK.stroke_width(1)))?;
-            let step = if hi - lo > 50.0 { 10.0 } else { 5.0 };
-            let mut v = (lo / step).ceil() * step;
-            while v <= hi + 1e-9 {
-                let py = by1 - ((v - lo) / (hi - lo) * f64::from(by1 - by0)).round() as i32;
-                bar.draw(&PathElement::new(vec![(bar_x + bar_w, py), (bar_x + bar_w + 4, py)], BLACK))?;
-                bar.draw(&Text::new(format!("{v:.0}"), (bar_x + bar_w + 7, py - 7), ("sans-serif", 13)))?;
-                v += step;
+            Some(Legend::Categories(items)) => {
+                bar.draw(&Text::new("best server", (6, by0 - 20), ("sans-serif", 13)))?;
+                for (k, (name, c)) in items.iter().enumerate() {
+                    let y = by0 + 20 * k as i32;
+                    bar.draw(&Rectangle::new([(8, y), (24, y + 14)], c.filled()))?;
+                    bar.draw(&Rectangle::new([(8, y), (24, y + 14)], BLACK.stroke_width(1)))?;
+                    let short: String = name.chars().take(14).collect();
+                    bar.draw(&Text::new(short, (30, y), ("sans-serif", 13)))?;
+                }
             }
-            bar.draw(&Text::new("path gain (dB)", (bar_x - 4, by0 - 24), ("sans-serif", 13)))?;
+            None => {}
         }
         root.present()?;
     }
     write_rgb_png(path, w, h, &buf)
 }
 
-/// Colours of the transmitters in a power-delay profile (Okabe & Ito 2008, colour-blind safe).
-const TX_COLOURS: [RGBColor; 6] = [
+/// Draws the path-gain map `cov` with a colour bar over `range` (dB; `None`: an empty map,
+/// all grey) into an RGB image of about `width` pixels and writes it as PNG.
+pub fn write_coverage_png(
+    path: &Path,
+    cov: &Coverage,
+    range: Option<(f64, f64)>,
+    extras: &PlotExtras,
+    width: u32,
+) -> anyhow::Result<()> {
+    let colour = |c: usize| match range {
+        Some((lo, hi)) if cov.path_gain[c] > 0.0 => {
+            Some(colormap((10.0 * cov.path_gain[c].log10() - lo) / (hi - lo)))
+        }
+        _ => None,
+    };
+    let legend = range.map(|(lo, hi)| Legend::Bar { lo, hi, label: "path gain (dB)" });
+    write_map_png(path, cov.spec, &colour, legend, extras, width)
+}
+
+/// The colour of transmitter `i` on categorical charts.
+pub fn transmitter_colour(i: usize) -> RGBColor {
+    TX_COLOURS[i % TX_COLOURS.len()]
+}
+
+/// Draws the best server of every cell (`best[cell]`, an index into `names`; `None`: grey)
+/// in the transmitters' colours, with a legend, and writes it as PNG.
+pub fn write_best_server_png(
+    path: &Path,
+    spec: GridSpec,
+    best: &[Option<usize>],
+    names: &[String],
+    extras: &PlotExtras,
+    width: u32,
+) -> anyhow::Result<()> {
+    let items: Vec<(String, RGBColor)> =
+        names.iter().enumerate().map(|(i, n)| (n.clone(), transmitter_colour(i))).collect();
+    let colour = |c: usize| best.get(c).copied().flatten().map(transmitter_colour);
+    write_map_png(path, spec, &colour, Some(Legend::Categories(&items)), extras, width)
+}
+
+/// Colours of the transmitters in a power-delay profile and on the best-server map (Okabe &
+/// Ito 2008, colour-blind safe), repeating after eight.
+const TX_COLOURS: [RGBColor; 8] = [
     RGBColor(0, 114, 178),
     RGBColor(230, 159, 0),
     RGBColor(0, 158, 115),
     RGBColor(213, 94, 0),
     RGBColor(86, 180, 233),
     RGBColor(204, 121, 167),
+    RGBColor(240, 228, 66),
+    RGBColor(0, 0, 0),
 ];
 
 /// The power-delay profile of one receiver as PNG: a stem per path at its delay (ns) up to
@@ -230,7 +312,7 @@ pub fn write_pdp_png(
             .label_style(("sans-serif", 13))
             .draw()?;
         for (i, (name, points)) in transmitters.iter().enumerate() {
-            let colour = TX_COLOURS[i % TX_COLOURS.len()];
+            let colour = transmitter_colour(i);
             let style = colour.stroke_width(2);
             chart
                 .draw_series(
