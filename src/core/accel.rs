@@ -14,11 +14,11 @@ use obvhs::bvh2::reinsertion::ReinsertionOptimizer;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
 use obvhs::cwbvh::node::CwBvhNode;
-use obvhs::ploc::PlocBuilder;
 use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
 mod collapse;
+mod ploc;
 
 use super::flat::{FLAT_LIMIT, FlatRay, FlatTriangles};
 use super::hit::{Hit, PrimitiveKind};
@@ -162,13 +162,7 @@ impl MeshBvh {
             .collect();
         stage("bounds");
         let p = quality.params();
-        let mut bvh2 = PlocBuilder::with_capacity(n).build(
-            p.ploc_search_distance,
-            &bounds,
-            (0..n as u32).collect(),
-            p.sort_precision,
-            p.search_depth_threshold,
-        );
+        let mut bvh2 = ploc::build(&bounds, &p);
         stage("ploc");
         ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
         stage("reinsertion");
@@ -721,6 +715,7 @@ mod tests {
 
     #[test]
     fn parallel_collapse_matches_obvhs() {
+        use obvhs::ploc::PlocBuilder;
         let mesh = random_triangles(5, 20_000, Vec3::ZERO, 1.0);
         let bounds: Vec<Bounds> = (0..mesh.triangle_count())
             .map(|i| {
@@ -743,6 +738,46 @@ mod tests {
             let (nodes, prims) = collapse::collapse(&bvh2, 3);
             assert!(nodes == reference.nodes, "{quality:?}: nodes differ");
             assert_eq!(prims, reference.primitive_indices, "{quality:?}");
+        }
+    }
+
+    #[test]
+    fn ploc_matches_obvhs() {
+        use obvhs::ploc::PlocBuilder;
+        // Random triangles (parallel and sequential neighbour searches), and a regular grid of
+        // quads, whose costs tie everywhere.
+        let mut grid = TriangleMesh::default();
+        let s = grid.surface_id("a");
+        for i in 0..100 {
+            for j in 0..60 {
+                let p = |di: i32, dj: i32| Vec3::new((i + di) as f32 * 0.5, (j + dj) as f32 * 0.5, 0.0);
+                grid.push_triangle([p(0, 0), p(1, 0), p(1, 1)], s);
+                grid.push_triangle([p(0, 0), p(1, 1), p(0, 1)], s);
+            }
+        }
+        for mesh in
+            [random_triangles(5, 20_000, Vec3::ZERO, 1.0), random_triangles(6, 3_000, Vec3::ZERO, 2.0), grid]
+        {
+            let bounds: Vec<Bounds> = (0..mesh.triangle_count())
+                .map(|i| {
+                    let [a, b, c] = mesh.corners(i);
+                    padded_bounds(a.min(b).min(c), a.max(b).max(c))
+                })
+                .collect();
+            for quality in BuildQuality::ALL {
+                let p = quality.params();
+                let reference = PlocBuilder::with_capacity(bounds.len()).build(
+                    p.ploc_search_distance,
+                    &bounds,
+                    (0..bounds.len() as u32).collect(),
+                    p.sort_precision,
+                    p.search_depth_threshold,
+                );
+                let ours = ploc::build(&bounds, &p);
+                assert_eq!(format!("{:?}", ours.nodes), format!("{:?}", reference.nodes), "{quality:?}");
+                assert_eq!(ours.primitive_indices, reference.primitive_indices, "{quality:?}");
+                assert_eq!(ours.max_depth, reference.max_depth, "{quality:?}");
+            }
         }
     }
 

@@ -5,7 +5,7 @@
 //!
 //! It follows obvhs' `bvh2_to_cwbvh` step by step (same costs, same ties, same node layout),
 //! with four changes: the cost pass runs in parallel (rayon) and returns the costs up the
-//! recursion, so only the decisions are stored, packed in 8 bytes a binary node instead of
+//! walk, so only the decisions are stored, packed in 8 bytes a binary node instead of
 //! 56; both passes walk an 8-byte copy of the binary nodes and prefetch a level ahead; and
 //! the emission's top levels emit their subtrees in parallel and splice them in order. Each
 //! cost depends only on its subtree and each part lands where the sequential pass puts it,
@@ -102,31 +102,64 @@ fn prefetch_grandchildren(nodes: &[WalkNode], n: WalkNode) {
     }
 }
 
+/// The costs of a subtree spread over 1..=7 slots, and its primitive count.
+type Costs = ([f32; 7], u32);
+
 /// The SAH costs of `n`'s subtree spread over 1..=7 slots, and its primitive count; stores
-/// the decisions of `n` and below.
-fn cost(
-    nodes: &[WalkNode],
-    decisions: &[AtomicU64],
-    n: usize,
-    max_prims: u32,
-    level: u32,
-) -> ([f32; 7], u32) {
+/// the decisions of `n` and below. The top [`PARALLEL_LEVELS`] levels recurse (costing their
+/// two subtrees in parallel); below them [`cost_below`] walks the subtrees with an explicit
+/// stack, so the call depth stays within `PARALLEL_LEVELS` + 1 however deep the tree.
+fn cost(nodes: &[WalkNode], decisions: &[AtomicU64], n: usize, max_prims: u32, level: u32) -> Costs {
     let node = nodes[n];
-    let half_area = node.half_area;
-    if node.is_leaf() {
-        decisions[n].store(0, Relaxed);
-        return ([half_area * PRIM_COST; 7], 1);
+    if level >= PARALLEL_LEVELS || node.is_leaf() {
+        return cost_below(nodes, decisions, n, max_prims);
     }
     prefetch_grandchildren(nodes, node);
     let (a, b) = (node.index(), node.index() + 1);
-    let ((ca, pa), (cb, pb)) = if level < PARALLEL_LEVELS {
-        rayon::join(
-            || cost(nodes, decisions, a, max_prims, level + 1),
-            || cost(nodes, decisions, b, max_prims, level + 1),
-        )
-    } else {
-        (cost(nodes, decisions, a, max_prims, level + 1), cost(nodes, decisions, b, max_prims, level + 1))
-    };
+    let (left, right) = rayon::join(
+        || cost(nodes, decisions, a, max_prims, level + 1),
+        || cost(nodes, decisions, b, max_prims, level + 1),
+    );
+    combine(decisions, n, node.half_area, left, right, max_prims)
+}
+
+/// [`cost`] of the subtree at `root` on one thread, depth first (left, right, then the node)
+/// with an explicit stack.
+fn cost_below(nodes: &[WalkNode], decisions: &[AtomicU64], root: usize, max_prims: u32) -> Costs {
+    // (node, its children are done); the costs of finished subtrees, innermost last.
+    let mut todo: Vec<(usize, bool)> = vec![(root, false)];
+    let mut done: Vec<Costs> = Vec::new();
+    while let Some((n, children_done)) = todo.pop() {
+        let node = nodes[n];
+        if node.is_leaf() {
+            decisions[n].store(0, Relaxed);
+            done.push(([node.half_area * PRIM_COST; 7], 1));
+        } else if children_done {
+            let (Some(right), Some(left)) = (done.pop(), done.pop()) else {
+                unreachable!("both subtrees of a binary node are costed before it")
+            };
+            done.push(combine(decisions, n, node.half_area, left, right, max_prims));
+        } else {
+            prefetch_grandchildren(nodes, node);
+            todo.push((n, true));
+            todo.push((node.index() + 1, false));
+            todo.push((node.index(), false));
+        }
+    }
+    done.pop().unwrap_or(([0.0; 7], 0))
+}
+
+/// The costs of binary node `n` (of half area `half_area`) from those of its children;
+/// stores its decisions.
+#[inline(always)]
+fn combine(
+    decisions: &[AtomicU64],
+    n: usize,
+    half_area: f32,
+    (ca, pa): Costs,
+    (cb, pb): Costs,
+    max_prims: u32,
+) -> Costs {
     let prims = pa + pb;
     // spread[j]: the cheapest split of j + 2 slots between the children (ca[k] + cb[j - k]),
     // and the first k that gives it. Branch-free: which split wins is not predictable.
@@ -196,7 +229,8 @@ impl Emit<'_> {
         }
     }
 
-    /// The binary nodes that fill the slots of `n` with decision `i`.
+    /// The binary nodes that fill the slots of `n` with decision `i`. Recurses at most 7 deep:
+    /// each level spreads fewer slots than the one above.
     fn children(&self, n: usize, i: usize, children: &mut [usize; 8], count: &mut usize) {
         let node = self.walk[n];
         if node.is_leaf() {
@@ -218,7 +252,8 @@ impl Emit<'_> {
         }
     }
 
-    /// Appends the primitives under `n`, left to right; returns their count.
+    /// Appends the primitives under `n`, left to right; returns their count. Called on leaf
+    /// decisions only (at most 3 primitives), so it recurses at most 2 deep.
     fn push_primitives(&mut self, n: usize) -> u32 {
         let node = self.walk[n];
         if node.is_leaf() {
@@ -276,12 +311,15 @@ impl Emit<'_> {
         internal
     }
 
-    /// Fills wide node `at` from binary node `n`, then its internal children.
+    /// Fills wide node `at` from binary node `n`, then its internal children, depth first in
+    /// slot order, with an explicit stack (a degenerate tree may be thousands of levels deep).
     fn emit(&mut self, at: usize, n: usize) {
-        let internal = self.node(at, n);
-        let first = self.out[at].child_base_idx as usize;
-        for (k, &c) in internal.nodes[..internal.count].iter().enumerate() {
-            self.emit(first + k, c);
+        let mut todo: Vec<(usize, usize)> = vec![(at, n)];
+        while let Some((at, n)) = todo.pop() {
+            let internal = self.node(at, n);
+            let first = self.out[at].child_base_idx as usize;
+            let children = internal.nodes[..internal.count].iter().enumerate();
+            todo.extend(children.rev().map(|(k, &c)| (first + k, c)));
         }
     }
 
@@ -344,6 +382,10 @@ struct Part {
 
 /// The CWBVH nodes of `bvh2` (one primitive per binary leaf) with at most `max_prims`
 /// (1..=3) primitives a leaf, and the primitive indices in leaf order.
+///
+/// Works on trees of any depth in bounded stack: no call chain is deeper than
+/// [`PARALLEL_LEVELS`] + 1 (the cost pass) or [`PARALLEL_EMIT_LEVELS`] + 9 (the emission);
+/// deeper levels are walked with explicit heap stacks.
 pub fn collapse(bvh2: &Bvh2, max_prims: u32) -> (Vec<CwBvhNode>, Vec<u32>) {
     if bvh2.nodes.is_empty() {
         return (Vec::new(), Vec::new());
