@@ -61,8 +61,9 @@ pub struct Chart<'a> {
     pub marker_label: Option<&'a str>,
 }
 
-/// Distinct colours for up to eight series (Okabe & Ito 2008, colour-blind safe, plus grey).
-const PALETTE: [RGBColor; 8] = [
+/// Distinct colours for up to eight series (Okabe & Ito 2008, colour-blind safe, plus grey):
+/// chart series, and the transmitters on radio maps.
+pub(crate) const PALETTE: [RGBColor; 8] = [
     RGBColor(0, 114, 178),
     RGBColor(230, 159, 0),
     RGBColor(0, 158, 115),

@@ -12,7 +12,7 @@ use plotters::style::text_anchor;
 use super::config::ColourRange;
 use super::coverage::{Coverage, GridSpec};
 use crate::core::TriangleMesh;
-use crate::io::plot::{register_font, write_rgb_png};
+use crate::io::plot::{PALETTE, register_font, write_rgb_png};
 
 /// Viridis (van der Walt & Smith, matplotlib), sampled at nine stops.
 const VIRIDIS: [[u8; 3]; 9] = [
@@ -227,7 +227,7 @@ pub fn write_coverage_png(
 
 /// The colour of transmitter `i` on categorical charts.
 pub fn transmitter_colour(i: usize) -> RGBColor {
-    TX_COLOURS[i % TX_COLOURS.len()]
+    PALETTE[i % PALETTE.len()]
 }
 
 /// Draws the best server of every cell (`best[cell]`, an index into `names`; `None`: grey)
@@ -245,19 +245,6 @@ pub fn write_best_server_png(
     let colour = |c: usize| best.get(c).copied().flatten().map(transmitter_colour);
     write_map_png(path, spec, &colour, Some(Legend::Categories(&items)), extras, width)
 }
-
-/// Colours of the transmitters in a power-delay profile and on the best-server map (Okabe &
-/// Ito 2008, colour-blind safe), repeating after eight.
-const TX_COLOURS: [RGBColor; 8] = [
-    RGBColor(0, 114, 178),
-    RGBColor(230, 159, 0),
-    RGBColor(0, 158, 115),
-    RGBColor(213, 94, 0),
-    RGBColor(86, 180, 233),
-    RGBColor(204, 121, 167),
-    RGBColor(240, 228, 66),
-    RGBColor(0, 0, 0),
-];
 
 /// The power-delay profile of one receiver as PNG: a stem per path at its delay (ns) up to
 /// its gain `10 log10 |a|^2` (dB) from the chart's floor, with a circle at the top; one
