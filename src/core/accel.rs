@@ -162,9 +162,14 @@ impl MeshBvh {
             .collect();
         stage("bounds");
         let p = quality.params();
-        let mut bvh2 = ploc::build(&bounds, &p);
+        let (mut bvh2, guarded) = ploc::build(&bounds, &p);
         stage("ploc");
-        ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
+        // A tree the guard had to shape (degenerate input: copies of one triangle, one huge
+        // polygon) is a long chain on which reinsertion's work grows faster than the size
+        // (7 s of a 9.8 s build for one face of 900,000 indices): it is left as built.
+        if !guarded {
+            ReinsertionOptimizer::default().run(&mut bvh2, p.reinsertion_batch_ratio, None);
+        }
         stage("reinsertion");
         let (nodes, mesh_index) = collapse::collapse(&bvh2, p.max_prims_per_leaf);
         drop(bvh2);
@@ -773,7 +778,8 @@ mod tests {
                     p.sort_precision,
                     p.search_depth_threshold,
                 );
-                let ours = ploc::build(&bounds, &p);
+                let (ours, guarded) = ploc::build(&bounds, &p);
+                assert!(!guarded, "{quality:?}: an ordinary mesh needed the guard");
                 assert_eq!(format!("{:?}", ours.nodes), format!("{:?}", reference.nodes), "{quality:?}");
                 assert_eq!(ours.primitive_indices, reference.primitive_indices, "{quality:?}");
                 assert_eq!(ours.max_depth, reference.max_depth, "{quality:?}");

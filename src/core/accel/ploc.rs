@@ -133,8 +133,8 @@ fn sort_by_morton(
 }
 
 /// The binary BVH over `aabbs` (primitive `i` has index `i`), one primitive a leaf, with
-/// obvhs' PLOC parameters from `params`.
-pub fn build<T: Boundable + Sync>(aabbs: &[T], params: &BvhBuildParams) -> Bvh2 {
+/// obvhs' PLOC parameters from `params`, and whether any pass needed the guard.
+pub fn build<T: Boundable + Sync>(aabbs: &[T], params: &BvhBuildParams) -> (Bvh2, bool) {
     match params.ploc_search_distance {
         PlocSearchDistance::Minimum => build_with::<1, T>(aabbs, params),
         PlocSearchDistance::VeryLow => build_with::<2, T>(aabbs, params),
@@ -186,12 +186,12 @@ fn merged_pairs(merge: &[i8]) -> usize {
         .count()
 }
 
-fn build_with<const S: usize, T: Boundable + Sync>(aabbs: &[T], params: &BvhBuildParams) -> Bvh2 {
+fn build_with<const S: usize, T: Boundable + Sync>(aabbs: &[T], params: &BvhBuildParams) -> (Bvh2, bool) {
     let n = aabbs.len();
     let mut bvh = Bvh2::zeroed(n);
     bvh.reset_for_reuse(n, Some((0..n as u32).collect()));
     if n == 0 {
-        return bvh;
+        return (bvh, false);
     }
     let leaves: Vec<Bvh2Node> =
         aabbs.par_iter().enumerate().map(|(i, a)| Bvh2Node::new(a.aabb(), 1, i as u32)).collect();
@@ -209,12 +209,14 @@ fn build_with<const S: usize, T: Boundable + Sync>(aabbs: &[T], params: &BvhBuil
     let mut insert_index = bvh.nodes.len();
     let mut depth = 0usize;
     let mut count = n;
+    let mut guarded = false;
     while count > 1 {
         let nodes = &current[..count];
         let merge = &mut merge[..count];
         choose::<S>(nodes, merge, S == 1 || depth < params.search_depth_threshold);
         let pairs = merged_pairs(merge);
         if count > GUARD_FROM && pairs * MIN_MERGE_SHARE < count {
+            guarded = true;
             // Too little progress: pair the clusters in Morton order, (0, 1), (2, 3), ...;
             // an odd last one waits.
             for (i, m) in merge.iter_mut().enumerate() {
@@ -253,5 +255,5 @@ fn build_with<const S: usize, T: Boundable + Sync>(aabbs: &[T], params: &BvhBuil
     bvh.nodes[0] = current[0];
     bvh.max_depth = obvhs::bvh2::DEFAULT_MAX_STACK_DEPTH.max(depth + 1);
     bvh.children_are_ordered_after_parents = true;
-    bvh
+    (bvh, guarded)
 }
