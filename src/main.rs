@@ -30,7 +30,16 @@ fn main() -> ExitCode {
             return ExitCode::FAILURE;
         }
     };
-    match propsim::cli::run(cli, &cluster) {
+    let result = propsim::cli::run(cli, &cluster);
+    // Standard output is checked too: a full disk behind `> file` is an error like any other;
+    // a reader that went away (`| head`, with SIGPIPE ignored by the parent) ends us quietly.
+    let result = match (result, propsim::io::stdout::finish()) {
+        (Err(e), _) => Err(e),
+        (Ok(()), Err(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => return ExitCode::SUCCESS,
+        (Ok(()), Err(e)) => Err(anyhow::anyhow!("cannot write standard output: {e}")),
+        (Ok(()), Ok(())) => Ok(()),
+    };
+    match result {
         Ok(()) => {
             if cluster.is_root() && cluster.size() > 1 {
                 let c = cluster.reduce_cost();

@@ -14,6 +14,7 @@ use crate::acoustic::{AcousticResult, AcousticSettings, Air, ReceiverSpec, Sourc
 use crate::core::Ray;
 use crate::core::rng::{stream, uniform};
 use crate::dist::Cluster;
+use crate::io::atomic::write_atomically;
 use crate::io::plot::{Chart, Series, line_chart};
 use crate::io::{file_stem, wav};
 use crate::scene::materials::BAND_COUNT;
@@ -143,50 +144,55 @@ pub fn write_outputs(
     // metrics.csv: the ten columns of the issue, then (appended, so the first ten keep their
     // places) G and the figures that say how far the decay parameters can be trusted.
     let metrics_path = out.join("metrics.csv");
-    let mut w =
-        csv::Writer::from_path(&metrics_path).with_context(|| format!("{}", metrics_path.display()))?;
-    w.write_record(METRICS_COLUMNS)?;
-    for p in &result.pairs {
-        for (b, m) in p.metrics.iter().enumerate() {
-            w.write_record([
-                p.source.clone(),
-                p.receiver.clone(),
-                format!("{}", result.bands_hz[b]),
-                fmt_opt(m.edt_s, 4),
-                fmt_opt(m.t20_s, 4),
-                fmt_opt(m.t30_s, 4),
-                fmt_opt(m.c50_db, 3),
-                fmt_opt(m.c80_db, 3),
-                fmt_opt(m.d50, 4),
-                fmt_opt(m.ts_ms, 2),
-                fmt_opt(m.g_db, 2),
-                fmt_opt(m.dynamic_range_db, 1),
-                fmt_opt(m.truncation_s, 3),
-                fmt_opt(m.t20_r, 5),
-                fmt_opt(m.t30_r, 5),
-                fmt_opt(m.t20_xi_permille, 2),
-                fmt_opt(m.t30_xi_permille, 2),
-                fmt_opt(m.curvature_percent, 1),
-            ])?;
+    write_atomically(&metrics_path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record(METRICS_COLUMNS)?;
+        for p in &result.pairs {
+            for (b, m) in p.metrics.iter().enumerate() {
+                w.write_record([
+                    p.source.clone(),
+                    p.receiver.clone(),
+                    format!("{}", result.bands_hz[b]),
+                    fmt_opt(m.edt_s, 4),
+                    fmt_opt(m.t20_s, 4),
+                    fmt_opt(m.t30_s, 4),
+                    fmt_opt(m.c50_db, 3),
+                    fmt_opt(m.c80_db, 3),
+                    fmt_opt(m.d50, 4),
+                    fmt_opt(m.ts_ms, 2),
+                    fmt_opt(m.g_db, 2),
+                    fmt_opt(m.dynamic_range_db, 1),
+                    fmt_opt(m.truncation_s, 3),
+                    fmt_opt(m.t20_r, 5),
+                    fmt_opt(m.t30_r, 5),
+                    fmt_opt(m.t20_xi_permille, 2),
+                    fmt_opt(m.t30_xi_permille, 2),
+                    fmt_opt(m.curvature_percent, 1),
+                ])?;
+            }
         }
-    }
-    w.flush()?;
+        w.flush()?;
+        Ok(())
+    })?;
     written.push(metrics_path);
     // histogram.csv: energy fluence per bin and band, J/m^2.
     let hist_path = out.join("histogram.csv");
-    let mut w = csv::Writer::from_path(&hist_path).with_context(|| format!("{}", hist_path.display()))?;
-    let mut header = vec!["source".to_string(), "receiver".into(), "time_s".into()];
-    header.extend(result.bands_hz.iter().map(|f| format!("energy_{f}hz_j_per_m2")));
-    w.write_record(&header)?;
-    for p in &result.pairs {
-        for (k, bin) in p.histogram.iter().enumerate() {
-            let mut row =
-                vec![p.source.clone(), p.receiver.clone(), format!("{:.4}", k as f64 * result.bin_s)];
-            row.extend(bin.iter().map(|e| format!("{e:.6e}")));
-            w.write_record(&row)?;
+    write_atomically(&hist_path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        let mut header = vec!["source".to_string(), "receiver".into(), "time_s".into()];
+        header.extend(result.bands_hz.iter().map(|f| format!("energy_{f}hz_j_per_m2")));
+        w.write_record(&header)?;
+        for p in &result.pairs {
+            for (k, bin) in p.histogram.iter().enumerate() {
+                let mut row =
+                    vec![p.source.clone(), p.receiver.clone(), format!("{:.4}", k as f64 * result.bin_s)];
+                row.extend(bin.iter().map(|e| format!("{e:.6e}")));
+                w.write_record(&row)?;
+            }
         }
-    }
-    w.flush()?;
+        w.flush()?;
+        Ok(())
+    })?;
     written.push(hist_path);
     use rayon::prelude::*;
     let per_pair: Vec<anyhow::Result<Vec<PathBuf>>> = result
@@ -438,6 +444,10 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         ..Default::default()
     };
     anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);
+    // The output directory is checked before the (possibly long) simulation.
+    if cluster.is_root() {
+        crate::io::atomic::check_writable(&args.out, true)?;
+    }
     let bar = super::progress::bar(settings.rays * sources.len() as u64, "rays");
     let result = simulate_on(cluster, &world, &sources, &receivers, &settings, &|n| bar.inc(n))
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
@@ -464,8 +474,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
             "metrics": "ISO 3382-1 from the Schroeder curve, truncated at the noise floor with late-decay compensation (Lundeby et al. 1995) where the decay has one; C50, C80, D50 and Ts counted from the direct-sound arrival d/c, with the whole 1 ms bin holding the direct sound early; G re the same source at 10 m in a free field",
         },
     });
-    std::fs::write(&summary_path, serde_json::to_string_pretty(&json)?)
-        .with_context(|| format!("{}: cannot write", summary_path.display()))?;
+    crate::io::atomic::write_bytes(&summary_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
     say!("{}", summary_text(&result).trim_end());
     for p in &result.pairs {
         for w in &p.warnings {

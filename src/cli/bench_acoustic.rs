@@ -30,7 +30,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
     } else {
         args.scenes.clone()
     };
-    println!("threads: {}", rayon::current_num_threads());
+    crate::outln!("threads: {}", rayon::current_num_threads());
     for path in scenes {
         let world = World::build(scene::load(&path, &LoadOptions::default())?);
         let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
@@ -61,7 +61,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
         }
         let wall = median(times);
         let rays = args.rays * sources.len() as u64;
-        println!(
+        crate::outln!(
             "{}: {} pairs, {} rays per source, wall {:.2} s (median of {}), {:.0} rays/s, {:.1} M ray segments/s ({} segments)",
             path.display(),
             pairs,
@@ -74,7 +74,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(mb) = peak_rss_mb() {
-        println!("peak memory: {mb:.0} MB resident");
+        crate::outln!("peak memory: {mb:.0} MB resident");
     }
     Ok(())
 }

@@ -55,7 +55,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
     }
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));
     let (secs, samples, rays, mean) = runs[runs.len() / 2];
-    println!(
+    crate::outln!(
         "bench render: {} {}x{} spp {} max depth {} {} threads",
         args.scene.display(),
         args.width,
@@ -64,14 +64,14 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         args.max_depth,
         rayon::current_num_threads()
     );
-    println!("  integrator    {}", integrator.name());
-    println!("  wall time     {secs:.3} s (median of {})", args.repeat);
-    println!("  samples/s     {:.2} M", samples as f64 / secs / 1e6);
-    println!(
+    crate::outln!("  integrator    {}", integrator.name());
+    crate::outln!("  wall time     {secs:.3} s (median of {})", args.repeat);
+    crate::outln!("  samples/s     {:.2} M", samples as f64 / secs / 1e6);
+    crate::outln!(
         "  rays/s        {:.2} Mrays/s ({:.2} rays per sample)",
         rays as f64 / secs / 1e6,
         rays as f64 / samples as f64
     );
-    println!("  image mean    {:.4} {:.4} {:.4}", mean.x, mean.y, mean.z);
+    crate::outln!("  image mean    {:.4} {:.4} {:.4}", mean.x, mean.y, mean.z);
     Ok(())
 }

@@ -4,7 +4,6 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::Context;
 use clap::Args;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
@@ -74,7 +73,7 @@ pub fn write_rays(path: &Path, rays: &[Ray]) -> anyhow::Result<()> {
             bytes.extend_from_slice(&v.to_le_bytes());
         }
     }
-    std::fs::write(path, bytes).with_context(|| format!("{}: cannot write", path.display()))
+    crate::io::atomic::write_bytes(path, &bytes)
 }
 
 /// Terrain height (m) at (x, y): a few octaves of smooth waves over 1 km.
@@ -147,16 +146,15 @@ pub fn incoherent_rays(count: usize, seed: u64) -> Vec<Ray> {
 }
 
 fn write_obj(path: &Path, mesh: &TriangleMesh) -> anyhow::Result<()> {
-    use std::io::Write;
-    let f = std::fs::File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
-    let mut w = std::io::BufWriter::new(f);
-    for p in &mesh.positions {
-        writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
-    }
-    for t in &mesh.triangles {
-        writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
-    }
-    Ok(())
+    crate::io::atomic::write_atomically(path, |w| {
+        for p in &mesh.positions {
+            writeln!(w, "v {} {} {}", p.x, p.y, p.z)?;
+        }
+        for t in &mesh.triangles {
+            writeln!(w, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
+        }
+        Ok(())
+    })
 }
 
 /// Median of a list of seconds.
@@ -314,28 +312,28 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
         for (name, rays) in to_write {
             let p = PathBuf::from(format!("{}_{name}.bin", prefix.display()));
             write_rays(&p, rays)?;
-            println!("wrote {}", p.display());
+            crate::outln!("wrote {}", p.display());
         }
     }
-    println!("mesh:        {label}, {} triangles", mesh.triangle_count());
-    println!("threads:     {}", rayon::current_num_threads());
+    crate::outln!("mesh:        {label}, {} triangles", mesh.triangle_count());
+    crate::outln!("threads:     {}", rayon::current_num_threads());
     let quality = match args.quality.as_str() {
         "fast" => BuildQuality::Fast,
         "high" => BuildQuality::High,
         _ => BuildQuality::Medium,
     };
     let (accel, builds) = timed_builds(&mesh, args.repeat.clamp(1, 3), quality);
-    println!(
+    crate::outln!(
         "build:       {:.3} s (median of {}), BVH + triangles {:.1} MB",
         median(builds.clone()),
         builds.len(),
         accel.mesh.memory_bytes() as f64 / 1e6
     );
     let sets = sets.unwrap_or_else(generated);
-    println!("{FIGURE_LEGEND}");
+    crate::outln!("{FIGURE_LEGEND}");
     for (name, rays) in &sets {
         let f = trace_figures(&accel, rays, args.repeat);
-        println!(
+        crate::outln!(
             "{name:<12} {} rays: render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}, checksum {:#018x}",
             rays.len(),
             f.render_mrays_s,
@@ -347,7 +345,7 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
         );
     }
     if let Some(mb) = peak_rss_mb() {
-        println!("peak memory: {mb:.0} MB resident");
+        crate::outln!("peak memory: {mb:.0} MB resident");
     }
     Ok(())
 }

@@ -216,7 +216,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
     if args.json {
         say!("{}", serde_json::to_string_pretty(&r)?);
     } else {
-        print!("{}", format_report(&r));
+        crate::out!("{}", format_report(&r));
     }
     Ok(())
 }

@@ -13,9 +13,9 @@ pub fn speaks() -> bool {
     SPEAKS.load(Ordering::Relaxed)
 }
 
-/// `println!` on the process that speaks for the job.
+/// `println!` on the process that speaks for the job, checked ([`crate::io::stdout`]).
 macro_rules! say {
-    ($($t:tt)*) => { if $crate::cli::speaks() { println!($($t)*) } };
+    ($($t:tt)*) => { if $crate::cli::speaks() { $crate::outln!($($t)*) } };
 }
 
 /// `eprintln!` on the process that speaks for the job.

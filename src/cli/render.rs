@@ -112,6 +112,9 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
 pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     // Check the output name before the (possibly long) render.
     ImageFormat::from_path(&args.output)?;
+    if cluster.is_root() {
+        crate::io::atomic::check_writable(&args.output, false)?;
+    }
     let options = LoadOptions { materials_files: args.materials.clone() };
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {

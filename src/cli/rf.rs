@@ -261,6 +261,10 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let scene_name = args.scene.display().to_string();
     let config =
         RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
+    // The output directory is checked before the (possibly long) simulation.
+    if cluster.is_root() {
+        crate::io::atomic::check_writable(&args.out, true)?;
+    }
     let pb = progress_bar(config.rays * config.transmitters.len() as u64);
     let result = simulate_on(cluster, &world, &config, &|n| {
         if let Some(pb) = &pb {

@@ -55,6 +55,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
     let desc = scene.desc.clone();
     if cluster.is_root() {
+        crate::io::atomic::check_writable(&args.out, true)?;
         std::fs::create_dir_all(&args.out)
             .with_context(|| format!("{}: cannot create", args.out.display()))?;
     }
@@ -98,7 +99,9 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
         paste(&mut sheet, path, *at, cell)?;
     }
     let sheet_path = args.out.join("summary.png");
-    sheet.save(&sheet_path).with_context(|| format!("{}: cannot write", sheet_path.display()))?;
+    let mut png = std::io::Cursor::new(Vec::new());
+    sheet.write_to(&mut png, image::ImageFormat::Png)?;
+    crate::io::atomic::write_bytes(&sheet_path, png.get_ref())?;
 
     let manifest_path = args.out.join("manifest.json");
     let manifest = serde_json::json!({
@@ -120,8 +123,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
         "timings_s": { "render": render_s, "acoustic": acoustic_s, "rf": rf_s, "total": started.elapsed().as_secs_f64() },
         "outputs": ["render.png", "metrics.csv", "histogram.csv", "acoustic.json", "coverage.csv", "coverage.png", "coverage.json", "summary.png", "manifest.json"],
     });
-    std::fs::write(&manifest_path, serde_json::to_string_pretty(&manifest)?)
-        .with_context(|| format!("{}: cannot write", manifest_path.display()))?;
+    crate::io::atomic::write_bytes(&manifest_path, serde_json::to_string_pretty(&manifest)?.as_bytes())?;
     say!(
         "run: render {render_s:.1} s, acoustic {acoustic_s:.1} s, radio {rf_s:.1} s; summary sheet {} and manifest {} ({:.1} s in all)",
         sheet_path.display(),

@@ -1,6 +1,9 @@
-//! Writers: PNG charts, WAV files, file names. No physics here.
+//! Writers: checked output files and standard output, PNG charts, WAV files, file names. No
+//! physics here.
 
+pub mod atomic;
 pub mod plot;
+pub mod stdout;
 pub mod wav;
 
 /// A file-name-safe version of a user-given name (letters, digits, `-`, `_`, `.` kept).

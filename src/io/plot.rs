@@ -4,7 +4,6 @@
 use std::path::Path;
 use std::sync::Once;
 
-use anyhow::Context as _;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -23,12 +22,15 @@ pub fn register_font() {
 
 /// Writes an 8-bit RGB buffer as PNG.
 pub fn write_rgb_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> anyhow::Result<()> {
-    let file = std::fs::File::create(path).with_context(|| format!("{}: cannot create", path.display()))?;
-    let mut enc = png::Encoder::new(std::io::BufWriter::new(file), width, height);
-    enc.set_color(png::ColorType::Rgb);
-    enc.set_depth(png::BitDepth::Eight);
-    enc.write_header()?.write_image_data(rgb).with_context(|| format!("{}: cannot write", path.display()))?;
-    Ok(())
+    super::atomic::write_atomically(path, |w| {
+        let mut enc = png::Encoder::new(w, width, height);
+        enc.set_color(png::ColorType::Rgb);
+        enc.set_depth(png::BitDepth::Eight);
+        let mut writer = enc.write_header()?;
+        writer.write_image_data(rgb)?;
+        writer.finish()?;
+        Ok(())
+    })
 }
 
 /// One line of a chart.

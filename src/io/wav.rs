@@ -2,8 +2,6 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
-
 /// Writes mono 32-bit float samples at `sample_rate_hz`.
 pub fn write_f32_mono(path: &Path, samples: &[f32], sample_rate_hz: u32) -> anyhow::Result<()> {
     let spec = hound::WavSpec {
@@ -12,13 +10,14 @@ pub fn write_f32_mono(path: &Path, samples: &[f32], sample_rate_hz: u32) -> anyh
         bits_per_sample: 32,
         sample_format: hound::SampleFormat::Float,
     };
-    let mut w =
-        hound::WavWriter::create(path, spec).with_context(|| format!("{}: cannot create", path.display()))?;
+    // Encoded in memory (hound seeks back to fill in the header), then written checked.
+    let mut bytes = std::io::Cursor::new(Vec::with_capacity(44 + 4 * samples.len()));
+    let mut w = hound::WavWriter::new(&mut bytes, spec)?;
     for &s in samples {
-        w.write_sample(s).with_context(|| format!("{}: cannot write", path.display()))?;
+        w.write_sample(s)?;
     }
-    w.finalize().with_context(|| format!("{}: cannot finish", path.display()))?;
-    Ok(())
+    w.finalize()?;
+    super::atomic::write_bytes(path, bytes.get_ref())
 }
 
 #[cfg(test)]

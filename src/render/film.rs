@@ -79,8 +79,17 @@ impl Film {
         }
         match format {
             ImageFormat::Png => {
-                image::save_buffer(path, &self.to_srgb8(), self.width, self.height, image::ColorType::Rgb8)
-                    .with_context(|| format!("{}: cannot write PNG", path.display()))
+                let mut png = std::io::Cursor::new(Vec::new());
+                image::write_buffer_with_format(
+                    &mut png,
+                    &self.to_srgb8(),
+                    self.width,
+                    self.height,
+                    image::ColorType::Rgb8,
+                    image::ImageFormat::Png,
+                )
+                .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
+                crate::io::atomic::write_bytes(path, png.get_ref())
             }
             ImageFormat::Exr => {
                 use exr::prelude::WritableImage as _;
@@ -92,11 +101,13 @@ impl Film {
                     });
                 // Chunks compressed one after the other: in parallel they land in the file in
                 // the order they finish, and the same image gives different bytes.
+                let mut exr_bytes = std::io::Cursor::new(Vec::new());
                 exr::prelude::Image::from_channels((w, self.height as usize), channels)
                     .write()
                     .non_parallel()
-                    .to_file(path)
-                    .with_context(|| format!("{}: cannot write EXR", path.display()))
+                    .to_buffered(&mut exr_bytes)
+                    .with_context(|| format!("{}: cannot encode EXR", path.display()))?;
+                crate::io::atomic::write_bytes(path, exr_bytes.get_ref())
             }
         }
     }

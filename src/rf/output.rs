@@ -5,7 +5,6 @@
 
 use std::path::Path;
 
-use anyhow::Context as _;
 use serde::Serialize;
 
 use super::config::CfrSpec;
@@ -57,36 +56,38 @@ fn db(v: f64) -> String {
 /// `path_gain_db` and `rx_power_dbm`. With several transmitters the row goes on with the
 /// [`server_columns`] ([`SERVERS`]).
 pub fn write_coverage_csv(path: &Path, config: &RfConfig, result: &RfResult) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
-    let names: Vec<String> = result.transmitters.iter().map(|t| t.name.clone()).collect();
-    let servers = server_columns(&names);
-    w.write_record(CSV_COLUMNS.iter().map(|c| c.to_string()).chain(servers.iter().cloned()))?;
-    let cov = &result.coverage;
-    let z = format!("{:.3}", cov.spec.height_m);
-    let mut row = Vec::with_capacity(CSV_COLUMNS.len() + servers.len());
-    for i in 0..cov.spec.cells() {
-        let [x, y] = cov.spec.centre(i);
-        let reached = cov.path_gain[i] > 0.0;
-        row.clear();
-        row.extend([
-            format!("{x:.3}"),
-            format!("{y:.3}"),
-            z.clone(),
-            db(cov.path_gain[i]),
-            if reached { db(result.rx_power_mw[i]) } else { String::new() },
-            cov.paths[i].to_string(),
-        ]);
-        if !servers.is_empty() {
-            match result.best_server(i, &config.noise) {
-                Some(b) => row.extend([names[b.index].clone(), db(b.power_mw), db(b.sinr)]),
-                None => row.extend([String::new(), String::new(), String::new()]),
+    crate::io::atomic::write_atomically(path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        let names: Vec<String> = result.transmitters.iter().map(|t| t.name.clone()).collect();
+        let servers = server_columns(&names);
+        w.write_record(CSV_COLUMNS.iter().map(|c| c.to_string()).chain(servers.iter().cloned()))?;
+        let cov = &result.coverage;
+        let z = format!("{:.3}", cov.spec.height_m);
+        let mut row = Vec::with_capacity(CSV_COLUMNS.len() + servers.len());
+        for i in 0..cov.spec.cells() {
+            let [x, y] = cov.spec.centre(i);
+            let reached = cov.path_gain[i] > 0.0;
+            row.clear();
+            row.extend([
+                format!("{x:.3}"),
+                format!("{y:.3}"),
+                z.clone(),
+                db(cov.path_gain[i]),
+                if reached { db(result.rx_power_mw[i]) } else { String::new() },
+                cov.paths[i].to_string(),
+            ]);
+            if !servers.is_empty() {
+                match result.best_server(i, &config.noise) {
+                    Some(b) => row.extend([names[b.index].clone(), db(b.power_mw), db(b.sinr)]),
+                    None => row.extend([String::new(), String::new(), String::new()]),
+                }
+                row.extend(result.transmitters.iter().map(|t| db(t.power_mw * t.coverage.path_gain[i])));
             }
-            row.extend(result.transmitters.iter().map(|t| db(t.power_mw * t.coverage.path_gain[i])));
+            w.write_record(&row)?;
         }
-        w.write_record(&row)?;
-    }
-    w.flush().with_context(|| format!("{}", path.display()))?;
-    Ok(())
+        w.flush()?;
+        Ok(())
+    })
 }
 
 /// One point receiver's line in the summary.
@@ -264,7 +265,7 @@ pub fn summary<'a>(
 /// Writes the summary as pretty JSON.
 pub fn write_summary_json(path: &Path, summary: &Summary) -> anyhow::Result<()> {
     let text = serde_json::to_string_pretty(summary)?;
-    std::fs::write(path, text + "\n").with_context(|| format!("{}", path.display()))
+    crate::io::atomic::write_bytes(path, (text + "\n").as_bytes())
 }
 
 /// The columns of `paths.csv`, exactly.
@@ -317,32 +318,34 @@ fn gain_db_text(g: f64) -> String {
 /// by increasing delay. Delays and amplitudes are written exactly (the shortest decimal
 /// exponent form that reads back to the same f64), gains and angles to 1e-6; a path of zero amplitude has an empty `gain_db`.
 pub fn write_paths_csv(path: &Path, config: &RfConfig, result: &RfResult) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
-    w.write_record(PATHS_CSV_COLUMNS)?;
-    for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
-        for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
-            for (k, p) in paths_by_delay(&ps.records).into_iter().enumerate() {
-                let (aod_az, aod_ze) = azimuth_zenith_deg(p.departure);
-                let (aoa_az, aoa_ze) = azimuth_zenith_deg(p.arrival);
-                w.write_record([
-                    t.name.clone(),
-                    r.name.clone(),
-                    k.to_string(),
-                    format!("{:e}", p.delay_s),
-                    format!("{:e}", p.amplitude.re),
-                    format!("{:e}", p.amplitude.im),
-                    gain_db_text(p.gain()),
-                    format!("{aod_az:.6}"),
-                    format!("{aod_ze:.6}"),
-                    format!("{aoa_az:.6}"),
-                    format!("{aoa_ze:.6}"),
-                    interactions_text(&p.interactions, &result.surface_names),
-                ])?;
+    crate::io::atomic::write_atomically(path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record(PATHS_CSV_COLUMNS)?;
+        for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
+            for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
+                for (k, p) in paths_by_delay(&ps.records).into_iter().enumerate() {
+                    let (aod_az, aod_ze) = azimuth_zenith_deg(p.departure);
+                    let (aoa_az, aoa_ze) = azimuth_zenith_deg(p.arrival);
+                    w.write_record([
+                        t.name.clone(),
+                        r.name.clone(),
+                        k.to_string(),
+                        format!("{:e}", p.delay_s),
+                        format!("{:e}", p.amplitude.re),
+                        format!("{:e}", p.amplitude.im),
+                        gain_db_text(p.gain()),
+                        format!("{aod_az:.6}"),
+                        format!("{aod_ze:.6}"),
+                        format!("{aoa_az:.6}"),
+                        format!("{aoa_ze:.6}"),
+                        interactions_text(&p.interactions, &result.surface_names),
+                    ])?;
+                }
             }
         }
-    }
-    w.flush().with_context(|| format!("{}", path.display()))?;
-    Ok(())
+        w.flush()?;
+        Ok(())
+    })
 }
 
 /// Writes `cfr.csv`: the channel frequency response `H(f)` of every (transmitter, receiver)
@@ -354,27 +357,29 @@ pub fn write_cfr_csv(
     result: &RfResult,
     spec: &CfrSpec,
 ) -> anyhow::Result<()> {
-    let mut w = csv::Writer::from_path(path).with_context(|| format!("{}", path.display()))?;
-    w.write_record(CFR_CSV_COLUMNS)?;
-    for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
-        let carrier_hz = t.freq_ghz * 1e9;
-        for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
-            for i in 0..spec.points {
-                let offset = spec.offset_hz(i);
-                let h = frequency_response(&ps.records, offset);
-                w.write_record([
-                    t.name.clone(),
-                    r.name.clone(),
-                    (carrier_hz + offset).to_string(),
-                    format!("{:e}", h.re),
-                    format!("{:e}", h.im),
-                    gain_db_text(h.norm_sqr()),
-                ])?;
+    crate::io::atomic::write_atomically(path, |out| {
+        let mut w = csv::Writer::from_writer(out);
+        w.write_record(CFR_CSV_COLUMNS)?;
+        for (t, tr) in config.transmitters.iter().zip(&result.transmitters) {
+            let carrier_hz = t.freq_ghz * 1e9;
+            for (r, ps) in config.receivers.iter().zip(&tr.receivers) {
+                for i in 0..spec.points {
+                    let offset = spec.offset_hz(i);
+                    let h = frequency_response(&ps.records, offset);
+                    w.write_record([
+                        t.name.clone(),
+                        r.name.clone(),
+                        (carrier_hz + offset).to_string(),
+                        format!("{:e}", h.re),
+                        format!("{:e}", h.im),
+                        gain_db_text(h.norm_sqr()),
+                    ])?;
+                }
             }
         }
-    }
-    w.flush().with_context(|| format!("{}", path.display()))?;
-    Ok(())
+        w.flush()?;
+        Ok(())
+    })
 }
 
 /// Writes the point receivers' outputs into `out`: `paths.csv`, `pdp_RECEIVER.png` for each
