@@ -69,6 +69,17 @@ fn padded_bounds(lo: Vec3, hi: Vec3) -> Bounds {
     Bounds(Aabb::new((lo - pad).into(), (hi + pad).into()))
 }
 
+/// The padded box of every triangle of `mesh`, in triangle order: the tree builder's input.
+fn triangle_bounds(mesh: &TriangleMesh) -> Vec<Bounds> {
+    (0..mesh.triangle_count())
+        .into_par_iter()
+        .map(|i| {
+            let [a, b, c] = mesh.corners(i);
+            padded_bounds(a.min(b).min(c), a.max(b).max(c))
+        })
+        .collect()
+}
+
 impl Boundable for Bounds {
     fn aabb(&self) -> Aabb {
         self.0
@@ -153,13 +164,7 @@ impl MeshBvh {
             }
             clock = std::time::Instant::now();
         };
-        let bounds: Vec<Bounds> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let [a, b, c] = mesh.corners(i);
-                padded_bounds(a.min(b).min(c), a.max(b).max(c))
-            })
-            .collect();
+        let bounds = triangle_bounds(mesh);
         stage("bounds");
         let p = quality.params();
         let (mut bvh2, guarded) = ploc::build(&bounds, &p);
@@ -722,12 +727,7 @@ mod tests {
     fn parallel_collapse_matches_obvhs() {
         use obvhs::ploc::PlocBuilder;
         let mesh = random_triangles(5, 20_000, Vec3::ZERO, 1.0);
-        let bounds: Vec<Bounds> = (0..mesh.triangle_count())
-            .map(|i| {
-                let [a, b, c] = mesh.corners(i);
-                padded_bounds(a.min(b).min(c), a.max(b).max(c))
-            })
-            .collect();
+        let bounds = triangle_bounds(&mesh);
         for quality in BuildQuality::ALL {
             let p = quality.params();
             let n = bounds.len() as u32;
@@ -763,12 +763,7 @@ mod tests {
         for mesh in
             [random_triangles(5, 20_000, Vec3::ZERO, 1.0), random_triangles(6, 3_000, Vec3::ZERO, 2.0), grid]
         {
-            let bounds: Vec<Bounds> = (0..mesh.triangle_count())
-                .map(|i| {
-                    let [a, b, c] = mesh.corners(i);
-                    padded_bounds(a.min(b).min(c), a.max(b).max(c))
-                })
-                .collect();
+            let bounds = triangle_bounds(&mesh);
             for quality in BuildQuality::ALL {
                 let p = quality.params();
                 let reference = PlocBuilder::with_capacity(bounds.len()).build(
