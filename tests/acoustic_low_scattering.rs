@@ -141,8 +141,10 @@ fn low_scattering_keeps_at_least_the_exact_specular_energy() {
     let exact = tail(&specular_histogram(&specular_keep(&ROOM_N, s), c, 1e-3, 3.0));
     let simulated = tail(&band(&result, 4));
     let direct_bin = (result.pairs[0].direct_s / 1e-3) as usize;
-    // From 20 ms after the direct sound until the specular part is 50 dB down (1.6 s).
-    let end = exact.iter().position(|&e| e < 1e-5 * exact[direct_bin]).unwrap();
+    // From 20 ms after the direct sound until the specular part is 30 dB down (the range of
+    // T30). Further down a few long-lived rays carry the tail and its estimate wanders by
+    // several dB between seeds at 10^5 rays (at 1.2 s: -0.8 to +6.6 dB for two seeds).
+    let end = exact.iter().position(|&e| e < 1e-3 * exact[direct_bin]).unwrap();
     let mut worst = f64::INFINITY;
     for k in direct_bin + 20..end {
         let margin_db = 10.0 * (simulated[k] / exact[k]).log10();
@@ -154,12 +156,15 @@ fn low_scattering_keeps_at_least_the_exact_specular_energy() {
         );
     }
     eprintln!("worst margin above the specular part: {worst:.2} dB up to {:.2} s", end as f64 * 1e-3);
-    // The scattered energy keeps propagating: late in the decay the total is well above the
-    // specular part (about 5 dB at 1.2 s); a tracer that dropped the scattered energy after
-    // one reflection would hug the bound.
-    let late = (1.2 / 1e-3) as usize;
-    let late_margin_db = 10.0 * (simulated[late] / exact[late]).log10();
-    assert!(late_margin_db > 2.0, "at 1.2 s only {late_margin_db:.2} dB above the specular part");
+    // The scattered energy keeps propagating: by the end of that range the total is well
+    // above the specular part; a tracer that dropped the scattered energy after one
+    // reflection would hug the bound.
+    let late_margin_db = 10.0 * (simulated[end] / exact[end]).log10();
+    assert!(
+        late_margin_db > 2.0,
+        "at {:.2} s only {late_margin_db:.2} dB above the specular part",
+        end as f64 * 1e-3
+    );
 }
 
 /// Energy balance: in a closed lossless room, scattering 0.1 on every surface keeps all of

@@ -277,10 +277,18 @@ fn specular_shoebox_t30_matches_the_exact_image_source_decay_in_every_band() {
     let direct_s = pair.direct_s;
     for b in 0..8 {
         let band = |h: &[[f64; 8]]| h.iter().map(|e| e[b]).collect::<Vec<_>>();
-        let exact = band_metrics(&band(&reference), 1e-3, direct_s).t30_s.unwrap();
+        let exact_metrics = band_metrics(&band(&reference), 1e-3, direct_s);
+        let exact = exact_metrics.t30_s.unwrap();
         let simulated = pair.metrics[b].t30_s.unwrap();
         let hz = result.bands_hz[b];
-        eprintln!("{hz} Hz: T30 {simulated:.4} s, exact image sources {exact:.4} s");
+        let (edt, exact_edt) = (pair.metrics[b].edt_s.unwrap(), exact_metrics.edt_s.unwrap());
+        eprintln!(
+            "{hz} Hz: T30 {simulated:.4} s, exact image sources {exact:.4} s; EDT {edt:.4} s vs {exact_edt:.4} s"
+        );
+        assert!(
+            (edt - exact_edt).abs() / exact_edt < 0.02,
+            "{hz} Hz: EDT {edt:.4} s vs exact {exact_edt:.4} s"
+        );
         assert!(
             (simulated - exact).abs() / exact < 0.02,
             "{hz} Hz: T30 {simulated:.4} s vs exact image sources {exact:.4} s"

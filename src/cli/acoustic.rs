@@ -58,6 +58,10 @@ pub struct AcousticArgs {
     /// Switch off diffuse rain (receivers then count only the rays that cross them).
     #[arg(long)]
     pub no_diffuse_rain: bool,
+    /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
+    /// higher is smoother late decay for more time.
+    #[arg(long)]
+    pub roulette_db: Option<f64>,
     /// Air temperature, C (default: the scene's, else 20).
     #[arg(long)]
     pub temperature_c: Option<f64>,
@@ -441,6 +445,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         air_absorption: !args.no_air,
         diffuse_rain: !args.no_diffuse_rain,
         ism_order: args.ism_order,
+        roulette_db: args.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
         ..Default::default()
     };
     anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);

@@ -20,6 +20,7 @@ use rayon::prelude::*;
 mod collapse;
 mod ploc;
 
+use super::convex::{ConvexRoom, Exit};
 use super::flat::{FLAT_LIMIT, FlatRay, FlatTriangles};
 use super::hit::{Hit, PrimitiveKind};
 use super::leaf::{LeafRay, LeafTriangles};
@@ -113,6 +114,9 @@ pub struct MeshBvh {
     /// A flat mesh's geometric normal of each slot, made once: a launcher's hit needs it at
     /// every bounce, and recomputing it cost a third of the query on a 12-triangle room.
     flat_normals: Vec<Vec3>,
+    /// A flat mesh that closes a convex polyhedron: rays from inside take the plane test
+    /// (closest hits and occlusion; [`ConvexRoom`]).
+    convex: Option<ConvexRoom>,
     /// Largest side of the root box (m): the scale of [`split_coherent`]'s origin test.
     size_m: f32,
 }
@@ -137,7 +141,11 @@ impl MeshBvh {
         let n = mesh_index.len();
         let singles: Vec<(u32, u32)> = (0..n as u32).map(|i| (i, 1)).collect();
         let leaves = LeafTriangles::new(n, &singles, |slot| corners[mesh_index[slot] as usize]);
+        let occupied: Vec<(u32, [Vec3; 3])> = (flat.slots().iter().enumerate())
+            .filter_map(|(slot, i)| i.map(|i| (slot as u32, corners[i as usize])))
+            .collect();
         Self {
+            convex: ConvexRoom::new(&occupied),
             nodes: Vec::new(),
             traverser: Traverser::new::<CwBvhNode>(&[]),
             flat_normals: (0..n as u32).map(|slot| leaves.triangle(slot, 1, 0).normal()).collect(),
@@ -189,7 +197,17 @@ impl MeshBvh {
         // The root's child planes span 255 steps of 2^e on each axis.
         let size_m =
             nodes[0].e.iter().map(|&e| f32::from_bits(u32::from(e) << 23) * 255.0).fold(0.0, f32::max);
-        Self { nodes, traverser, leaves, mesh_index, surface, flat: None, flat_normals: Vec::new(), size_m }
+        Self {
+            nodes,
+            traverser,
+            leaves,
+            mesh_index,
+            surface,
+            flat: None,
+            flat_normals: Vec::new(),
+            convex: None,
+            size_m,
+        }
     }
 
     /// Bytes held by the structure (nodes, triangles and index maps).
@@ -215,6 +233,15 @@ impl MeshBvh {
     /// The closest hit as (leaf, lane, distance, barycentrics).
     #[inline]
     fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
+        if let Some(room) = &self.convex {
+            match room.exit(ray.origin, ray.dir, ray.t_min, ray.t_max) {
+                Exit::Hit { slot, t, uv } => {
+                    return Some(ClosestLane { first: slot, count: 1, lane: 0, t, uv });
+                }
+                Exit::Miss => return None,
+                Exit::Unknown => {}
+            }
+        }
         if let Some(flat) = &self.flat {
             let flat_ray = FlatRay::new(ray.origin, ray.dir);
             return self
@@ -263,6 +290,9 @@ impl MeshBvh {
         let Some(flat) = &self.flat else {
             return self.closest_triangle(ray);
         };
+        if self.convex.is_some() {
+            return self.closest_triangle(ray);
+        }
         let closest = self.traverser.flat_closest(flat, flat_ray, ray.t_min, ray.t_max);
         closest.map(|(first, t, _)| (self.mesh_index[first as usize], t))
     }
@@ -279,6 +309,13 @@ impl MeshBvh {
 
     /// True when any triangle lies on the segment `(t_min, t_max)`.
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if let Some(room) = &self.convex {
+            match room.exit(ray.origin, ray.dir, ray.t_min, ray.t_max) {
+                Exit::Hit { .. } => return true,
+                Exit::Miss => return false,
+                Exit::Unknown => {}
+            }
+        }
         if let Some(flat) = &self.flat {
             let flat_ray = FlatRay::new(ray.origin, ray.dir);
             return self.traverser.flat_any(flat, &flat_ray, ray.t_min, ray.t_max);
