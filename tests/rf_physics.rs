@@ -47,12 +47,22 @@ fn default_physics() -> SurfacePhysics {
 
 /// Concrete slabs `d` metres thick.
 fn slab_physics(d: f64) -> SurfacePhysics {
-    SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: Some(vec![d]), wavelength_m: lambda() }
+    SurfacePhysics {
+        eta: vec![Some(concrete())],
+        slab_thickness_m: Some(vec![d]),
+        wavelength_m: lambda(),
+        scattering: Vec::new(),
+    }
 }
 
 /// Opaque concrete half-spaces (`--no-transmission`).
 fn half_space_physics() -> SurfacePhysics {
-    SurfacePhysics { eta: vec![Some(concrete())], slab_thickness_m: None, wavelength_m: lambda() }
+    SurfacePhysics {
+        eta: vec![Some(concrete())],
+        slab_thickness_m: None,
+        wavelength_m: lambda(),
+        scattering: Vec::new(),
+    }
 }
 
 fn run_grid(mesh: &TriangleMesh, tx: DVec3, grid: GridSpec, rays: u64, depth: u32) -> Coverage {

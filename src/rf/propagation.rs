@@ -8,6 +8,11 @@
 //! its field is divided by the square root of the chosen probability so that every cell's
 //! expected deposit is the sum over both branches (docs/radio.md, sec. 2). The work per ray
 //! grows with the depth, not with 2^depth.
+//!
+//! A surface with a scattering coefficient `S > 0` adds a third branch, the diffuse
+//! reflection (Degli-Esposti et al. 2007, as in Sionna RT): the specular field keeps
+//! `sqrt(1 - S^2)` of its amplitude and `S^2` of the reflected power leaves in a direction
+//! drawn from the scattering pattern (docs/radio.md, sec. 4).
 
 use glam::{DVec3, Vec3};
 
@@ -18,6 +23,7 @@ use crate::core::hit::Hit;
 use crate::core::launcher::{Bounce, Propagation};
 use crate::core::ray::Ray;
 use crate::core::rng::Rng64;
+use crate::scene::materials::{RadioScattering, ScatteringPattern};
 use rand::RngCore;
 
 /// A complex 3-vector: the (phasor) electric field direction and amplitude of a ray.
@@ -112,6 +118,9 @@ pub struct SurfacePhysics {
     /// this thickness, metres; or (`None`) opaque half-spaces that only reflect.
     pub slab_thickness_m: Option<Vec<f64>>,
     pub wavelength_m: f64,
+    /// Diffuse reflection of each surface (indexed by `SurfaceId`); a surface beyond the end
+    /// is purely specular (`S = 0`).
+    pub scattering: Vec<RadioScattering>,
 }
 
 impl SurfacePhysics {
@@ -129,6 +138,18 @@ impl SurfacePhysics {
                 (s.r_te, s.r_tm, Some((s.t_te, s.t_tm)))
             }
         })
+    }
+
+    /// The diffuse reflection of `surface` (`S = 0` when not given).
+    pub fn scattering(&self, surface: u32) -> RadioScattering {
+        self.scattering.get(surface as usize).copied().unwrap_or_default()
+    }
+
+    /// The factor `R = sqrt(1 - S^2)` on the specular reflection coefficients of `surface`
+    /// (Sionna RT's reflection reduction factor; docs/radio.md, sec. 4).
+    pub fn specular_factor(&self, surface: u32) -> f64 {
+        let s = self.scattering(surface).scattering_coefficient;
+        (1.0 - s * s).sqrt()
     }
 }
 
@@ -175,41 +196,228 @@ impl Propagation for RadioPropagation<'_> {
         _: f32,
         rng: &mut Rng64,
     ) -> Bounce {
-        let basis = LocalBasis::new(incoming.as_dvec3(), hit.normal.as_dvec3());
-        let Some((r_te, r_tm, t)) = self.physics.coefficients(hit.surface, basis.cos_theta) else {
-            return Bounce::Stop;
-        };
-        let reflected = basis.reflect(payload, r_te, r_tm);
-        let Some((t_te, t_tm)) = t else {
-            *payload = reflected;
-            if payload.power() < MIN_POWER {
-                return Bounce::Stop;
-            }
-            return Bounce::Continue(basis.reflected.as_vec3());
-        };
-        let transmitted = basis.transmit(payload, t_te, t_tm);
-        match choose_branch(reflected.power(), transmitted.power(), unit_f64(rng)) {
+        let k = incoming.as_dvec3();
+        let mut uniform = || unit_f64(rng);
+        match interaction(self.physics, hit.surface, payload, k, hit.normal.as_dvec3(), &mut uniform) {
             None => Bounce::Stop,
-            Some((Branch::Reflected, scale)) => {
-                *payload = reflected.scale(Complex::new(scale, 0.0));
-                Bounce::Continue(basis.reflected.as_vec3())
-            }
-            // A thin slab does not offset the ray: it goes on along its incoming direction,
-            // and the launcher's `Ray::spawn` starts it on the far side of the surface (the
-            // side the direction points to).
-            Some((Branch::Transmitted, scale)) => {
-                *payload = transmitted.scale(Complex::new(scale, 0.0));
-                Bounce::Continue(incoming)
+            Some(out) => {
+                *payload = out.field;
+                // (A transmitted ray's direction is `incoming` itself: f32 to f64 and back is
+                // exact.)
+                Bounce::Continue(out.direction.as_vec3())
             }
         }
     }
 }
 
-/// The branch a ray takes at a slab.
+/// What a ray becomes at an interaction: its branch, its field (weighted) and its direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interacted {
+    pub branch: Branch,
+    pub field: FieldVec,
+    pub direction: DVec3,
+}
+
+/// One interaction of the one-ray-per-path walk on `surface`: the incident field `e`
+/// travelling along the unit `k` meets the unit normal `n` (either side); `uniform` gives
+/// uniform numbers in [0, 1) and is called only when a choice is to be made (never on a
+/// purely specular opaque surface). The branch is drawn with probability proportional to
+/// its power and weighted by `1 / sqrt(q)` (docs/radio.md, secs. 2 and 4). `None`: the ray
+/// stops (an absorbing surface, or no power left).
+pub fn interaction(
+    physics: &SurfacePhysics,
+    surface: u32,
+    e: &FieldVec,
+    k: DVec3,
+    n: DVec3,
+    uniform: &mut impl FnMut() -> f64,
+) -> Option<Interacted> {
+    let basis = LocalBasis::new(k, n);
+    let (r_te, r_tm, t) = physics.coefficients(surface, basis.cos_theta)?;
+    let reflected = basis.reflect(e, r_te, r_tm);
+    let scattering = physics.scattering(surface);
+    let s = scattering.scattering_coefficient;
+    let specular =
+        |field: FieldVec| Interacted { branch: Branch::Reflected, field, direction: basis.reflected };
+    if s == 0.0 {
+        // Purely specular: the walk of docs/radio.md, sec. 2, draw for draw.
+        let Some((t_te, t_tm)) = t else {
+            return (reflected.power() >= MIN_POWER).then(|| specular(reflected));
+        };
+        let transmitted = basis.transmit(e, t_te, t_tm);
+        return match choose_branch(reflected.power(), transmitted.power(), uniform())? {
+            (Branch::Transmitted, scale) => Some(Interacted {
+                branch: Branch::Transmitted,
+                field: transmitted.scale(Complex::new(scale, 0.0)),
+                direction: k,
+            }),
+            (_, scale) => Some(specular(reflected.scale(Complex::new(scale, 0.0)))),
+        };
+    }
+    // The reflected power splits into (1 - S^2) specular and S^2 diffuse (Sionna RT).
+    let p_reflected = reflected.power();
+    let p_specular = (1.0 - s * s) * p_reflected;
+    let p_diffuse = s * s * p_reflected;
+    let transmitted = t.map(|(t_te, t_tm)| basis.transmit(e, t_te, t_tm));
+    let p_transmitted = transmitted.map_or(0.0, |f| f.power());
+    let (branch, scale) = choose_interaction(p_specular, p_diffuse, p_transmitted, uniform())?;
+    match (branch, transmitted) {
+        (Branch::Transmitted, Some(tr)) => {
+            Some(Interacted { branch, field: tr.scale(Complex::new(scale, 0.0)), direction: k })
+        }
+        (Branch::Diffuse, _) => {
+            // The side the wave came from.
+            let n_out = if k.dot(n) < 0.0 { n } else { -n };
+            let direction = sample_pattern(scattering.pattern, basis.reflected, n_out, uniform)?;
+            let field = diffuse_polarization(e, k, direction, scattering.xpd_coefficient);
+            // The pattern is sampled exactly (pdf = f_s), so the carried power is the total
+            // `p_specular + p_diffuse + p_transmitted` as on the other branches.
+            let total = p_specular + p_diffuse + p_transmitted;
+            let carried = field.power();
+            if !(carried > 0.0) {
+                return None;
+            }
+            Some(Interacted {
+                branch,
+                field: field.scale(Complex::new((total / carried).sqrt(), 0.0)),
+                direction,
+            })
+        }
+        _ => Some(specular(reflected.scale(Complex::new((1.0 - s * s).sqrt() * scale, 0.0)))),
+    }
+}
+
+/// Most draws of the directive pattern's rejection sampler (each is accepted with probability
+/// at least 1/2, so the cap is never reached in practice; the ray then stops).
+const MAX_PATTERN_DRAWS: u32 = 64;
+
+/// A unit vector drawn from the scattering pattern `f_s` over the hemisphere around `n_out`
+/// (the side of the incident wave), `k_r` the specular direction: cosine-weighted for the
+/// Lambertian pattern, and for the directive one drawn from `((1 + cos psi_R) / 2)^alpha_r`
+/// about `k_r` over the whole sphere (inverse CDF) and rejected below the surface, which
+/// leaves exactly the normalised `f_s` (Degli-Esposti et al. 2007; docs/radio.md, sec. 4).
+pub fn sample_pattern(
+    pattern: ScatteringPattern,
+    k_r: DVec3,
+    n_out: DVec3,
+    uniform: &mut impl FnMut() -> f64,
+) -> Option<DVec3> {
+    match pattern {
+        ScatteringPattern::Lambertian => {
+            let (u1, u2) = (uniform(), uniform());
+            // cos(theta) = sqrt(1 - u1): the density cos(theta) / pi over solid angle.
+            let (sin_t, cos_t) = (u1.sqrt(), (1.0 - u1).sqrt());
+            let (sin_p, cos_p) = (std::f64::consts::TAU * u2).sin_cos();
+            let (a, b) = orthonormal_basis(n_out);
+            Some((a * (sin_t * cos_p) + b * (sin_t * sin_p) + n_out * cos_t).normalize())
+        }
+        ScatteringPattern::Directive { alpha_r } => {
+            let (a, b) = orthonormal_basis(k_r);
+            let exponent = 1.0 / (f64::from(alpha_r) + 1.0);
+            for _ in 0..MAX_PATTERN_DRAWS {
+                let (u1, u2) = (uniform(), uniform());
+                // x = (1 + cos psi) / 2 has the density (alpha + 1) x^alpha on [0, 1].
+                let cos_psi = (2.0 * (1.0 - u1).powf(exponent) - 1.0).clamp(-1.0, 1.0);
+                let sin_psi = (1.0 - cos_psi * cos_psi).max(0.0).sqrt();
+                let (sin_p, cos_p) = (std::f64::consts::TAU * u2).sin_cos();
+                let d = (a * (sin_psi * cos_p) + b * (sin_psi * sin_p) + k_r * cos_psi).normalize();
+                if d.dot(n_out) > 0.0 {
+                    return Some(d);
+                }
+            }
+            None
+        }
+    }
+}
+
+/// The scattering pattern `f_s(k_i, k_s)` per steradian, normalised over the hemisphere of
+/// `n_out` (the incident side): `cos(theta_s) / pi` (Lambertian) or
+/// `((1 + k_r . k_s) / 2)^alpha_r / F_alpha(theta_i)` (directive), Degli-Esposti et al. 2007
+/// eqs. as given in Sionna RT's EM primer; 0 below the surface.
+pub fn pattern_density(pattern: ScatteringPattern, k_r: DVec3, n_out: DVec3, k_s: DVec3) -> f64 {
+    let cos_s = k_s.dot(n_out);
+    if cos_s <= 0.0 {
+        return 0.0;
+    }
+    match pattern {
+        ScatteringPattern::Lambertian => cos_s / std::f64::consts::PI,
+        ScatteringPattern::Directive { alpha_r } => {
+            let lobe = ((1.0 + k_r.dot(k_s)) / 2.0).max(0.0).powi(alpha_r as i32);
+            lobe / directive_normalisation(alpha_r, k_r.dot(n_out).clamp(0.0, 1.0))
+        }
+    }
+}
+
+/// `F_alpha(theta_i) = 2^-alpha sum_k C(alpha, k) I_k`, the integral of
+/// `((1 + cos psi_R) / 2)^alpha` over the hemisphere, with `I_k = 2 pi / (k + 1)` for even `k`
+/// and `2 pi / (k + 1) cos(t) sum_w C(2w, w) sin^2w(t) / 2^2w` for odd `k` (Degli-Esposti et
+/// al. 2007; Sionna RT's EM primer, directive model).
+fn directive_normalisation(alpha: u32, cos_theta_i: f64) -> f64 {
+    let sin2 = 1.0 - cos_theta_i * cos_theta_i;
+    let mut total = 0.0;
+    // C(alpha, k) / 2^alpha, built up term by term (no overflow for large alpha).
+    let mut weight = 0.5f64.powi(alpha as i32);
+    // The partial sum of C(2w, w) (sin^2 / 4)^w for odd k, extended as k grows.
+    let (mut odd_sum, mut odd_term, mut w_done) = (0.0, 1.0, 0u32);
+    for k in 0..=alpha {
+        let i_k = if k % 2 == 0 {
+            std::f64::consts::TAU / f64::from(k + 1)
+        } else {
+            while w_done <= (k - 1) / 2 {
+                odd_sum += odd_term;
+                // C(2w + 2, w + 1) / C(2w, w) = (2w + 1)(2w + 2) / (w + 1)^2.
+                let w = f64::from(w_done);
+                odd_term *= (2.0 * w + 1.0) * (2.0 * w + 2.0) / ((w + 1.0) * (w + 1.0)) * sin2 / 4.0;
+                w_done += 1;
+            }
+            std::f64::consts::TAU / f64::from(k + 1) * cos_theta_i * odd_sum
+        };
+        total += weight * i_k;
+        weight *= f64::from(alpha - k) / f64::from(k + 1);
+    }
+    total
+}
+
+/// Two unit vectors completing the unit `n` to a right-handed orthonormal basis (Duff et al.
+/// 2017, "Building an orthonormal basis, revisited", JCGT 6(1)).
+fn orthonormal_basis(n: DVec3) -> (DVec3, DVec3) {
+    let sign = 1.0f64.copysign(n.z);
+    let a = -1.0 / (sign + n.z);
+    let b = n.x * n.y * a;
+    (DVec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x), DVec3::new(b, sign + n.y * n.y * a, -n.y))
+}
+
+/// The spherical unit vectors `(theta_hat, phi_hat)` of the direction `k` (zenith from +z,
+/// azimuth from +x; `phi = 0` on the z axis), the basis of Sionna RT's scattered field.
+pub fn theta_phi_basis(k: DVec3) -> (DVec3, DVec3) {
+    let sin_t = k.x.hypot(k.y);
+    let (cos_p, sin_p) = if sin_t > 1e-12 { (k.x / sin_t, k.y / sin_t) } else { (1.0, 0.0) };
+    let cos_t = k.z;
+    (DVec3::new(cos_t * cos_p, cos_t * sin_p, -sin_t), DVec3::new(-sin_p, cos_p, 0.0))
+}
+
+/// The polarisation of a diffusely scattered wave: the incident field's components on
+/// `(theta_hat, phi_hat)` of `k_in`, turned by the cross-polarisation matrix
+/// `[[sqrt(1 - K_x), -sqrt(K_x)], [sqrt(K_x), sqrt(1 - K_x)]]` onto `(theta_hat, phi_hat)` of
+/// `k_s` (Degli-Esposti et al. 2011 eq. 9 as in Sionna RT, without the random phases). The
+/// matrix is a rotation: the power is the incident field's transverse power.
+pub fn diffuse_polarization(e: &FieldVec, k_in: DVec3, k_s: DVec3, xpd_coefficient: f64) -> FieldVec {
+    let (t_in, p_in) = theta_phi_basis(k_in);
+    let (t_s, p_s) = theta_phi_basis(k_s);
+    let (e_t, e_p) = (e.along(t_in), e.along(p_in));
+    let (a, b) = ((1.0 - xpd_coefficient).sqrt(), xpd_coefficient.sqrt());
+    FieldVec::from_component(e_t.scale(a) - e_p.scale(b), t_s)
+        .add(&FieldVec::from_component(e_t.scale(b) + e_p.scale(a), p_s))
+}
+
+/// The branch a ray takes at a surface.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Branch {
+    /// Specular reflection.
     Reflected,
     Transmitted,
+    /// Diffuse reflection (a surface with `S > 0`).
+    Diffuse,
 }
 
 /// A uniform `f64` in `[0, 1)` with 53 random bits.
@@ -234,6 +442,30 @@ pub fn choose_branch(p_r: f64, p_t: f64, u: f64) -> Option<(Branch, f64)> {
         Some((Branch::Transmitted, (total / p_t).sqrt()))
     } else {
         Some((Branch::Reflected, (total / p_r).sqrt()))
+    }
+}
+
+/// [`choose_branch`] with a third branch, the diffuse reflection (power `p_d`): transmitted
+/// when `u P < p_t`, diffuse when `p_t <= u P < p_t + p_d`, else specular, `P` the sum of the
+/// three, each with the amplitude factor `1 / sqrt(q) = sqrt(P / p)` (docs/radio.md, secs. 2
+/// and 4).
+pub fn choose_interaction(p_r: f64, p_d: f64, p_t: f64, u: f64) -> Option<(Branch, f64)> {
+    let total = p_r + p_d + p_t;
+    if total.is_nan() || total < MIN_POWER {
+        return None;
+    }
+    let x = u * total;
+    if x < p_t {
+        Some((Branch::Transmitted, (total / p_t).sqrt()))
+    } else if x < p_t + p_d {
+        Some((Branch::Diffuse, (total / p_d).sqrt()))
+    } else if p_r > 0.0 {
+        Some((Branch::Reflected, (total / p_r).sqrt()))
+    } else if p_d > 0.0 {
+        // Rounding put `u P` at the very top with no specular power.
+        Some((Branch::Diffuse, (total / p_d).sqrt()))
+    } else {
+        Some((Branch::Transmitted, (total / p_t).sqrt()))
     }
 }
 
