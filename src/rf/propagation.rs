@@ -472,6 +472,7 @@ pub fn choose_interaction(p_r: f64, p_d: f64, p_t: f64, u: f64) -> Option<(Branc
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI, TAU};
 
     #[test]
     fn the_branch_choice_is_proportional_to_power_and_unbiased() {
@@ -488,6 +489,7 @@ mod tests {
                     sum_t += p_t * scale * scale;
                     count_t += 1;
                 }
+                Branch::Diffuse => panic!("no diffuse branch without a scattering coefficient"),
             }
         }
         assert!((f64::from(count_t) / f64::from(n) - p_t / (p_r + p_t)).abs() < 1e-4);
@@ -498,6 +500,216 @@ mod tests {
         assert_eq!(choose_branch(0.0, 0.2, 0.999).map(|c| c.0), Some(Branch::Transmitted));
         assert_eq!(choose_branch(0.0, 0.0, 0.5), None);
         assert_eq!(choose_branch(f64::NAN, 0.1, 0.5), None);
+    }
+
+    use crate::core::rng::stream;
+
+    fn concrete_slab(s: f64, xpd: f64, pattern: ScatteringPattern) -> SurfacePhysics {
+        // ITU-R P.2040-3 concrete at 3.5 GHz: eps' = 5.24, sigma = 0.1231 S/m (docs/radio.md).
+        let eta = super::super::fresnel::complex_permittivity(5.24, 0.1231, 3.5e9);
+        SurfacePhysics {
+            eta: vec![Some(eta)],
+            slab_thickness_m: Some(vec![0.1]),
+            wavelength_m: super::super::fresnel::C0 / 3.5e9,
+            scattering: vec![RadioScattering { scattering_coefficient: s, xpd_coefficient: xpd, pattern }],
+        }
+    }
+
+    #[test]
+    fn one_interaction_keeps_the_energy_balance_of_its_three_branches() {
+        // A mixed-polarisation field meets a scattering concrete slab at 50 degrees. Over a
+        // uniform grid of the branch draw, the mean weighted power of each branch is the
+        // closed form: specular (1 - S^2) P_R, diffuse S^2 P_R, transmitted P_T, with
+        // P_R = |R_TE E_s|^2 + |R_TM E_p|^2 and P_T likewise (ITU-R P.2040-3 slab).
+        let (s, xpd) = (0.6, 0.3);
+        let physics = concrete_slab(s, xpd, ScatteringPattern::Lambertian);
+        let n = DVec3::Z;
+        let t = 50f64.to_radians();
+        let k = DVec3::new(t.sin(), 0.0, -t.cos());
+        let sv = k.cross(n).normalize();
+        let pv = sv.cross(k);
+        let e = FieldVec::from_component(Complex::new(0.6, 0.2), sv)
+            .add(&FieldVec::from_component(Complex::new(-0.3, 0.7), pv));
+        let c = super::super::fresnel::slab(physics.eta[0].unwrap(), t.cos(), 0.1, physics.wavelength_m);
+        let (e_s, e_p) = (e.along(sv).norm_sqr(), e.along(pv).norm_sqr());
+        let p_r = c.r_te.norm_sqr() * e_s + c.r_tm.norm_sqr() * e_p;
+        let p_t = c.t_te.norm_sqr() * e_s + c.t_tm.norm_sqr() * e_p;
+        let want = [(1.0 - s * s) * p_r, s * s * p_r, p_t];
+        let count = 1_000_000u32;
+        let mut sums = [0.0f64; 3];
+        for i in 0..count {
+            // The branch draw on a uniform grid, the direction's from Weyl sequences.
+            let mut draws = [
+                (f64::from(i) + 0.5) / f64::from(count),
+                (f64::from(i) * 0.618_033_988_749_894_9).fract(),
+                (f64::from(i) * 0.414_213_562_373_095_1).fract(),
+            ]
+            .into_iter();
+            let mut uniform = || draws.next().unwrap();
+            let out = interaction(&physics, 0, &e, k, n, &mut uniform).unwrap();
+            let slot = match out.branch {
+                Branch::Reflected => {
+                    assert_eq!(out.direction, LocalBasis::new(k, n).reflected);
+                    0
+                }
+                Branch::Diffuse => {
+                    // Scattered back into the incident side, a transverse wave.
+                    assert!(out.direction.z > 0.0);
+                    assert!(out.field.along(out.direction).abs() < 1e-9 * out.field.power().sqrt());
+                    1
+                }
+                Branch::Transmitted => {
+                    assert_eq!(out.direction, k);
+                    2
+                }
+            };
+            sums[slot] += out.field.power();
+        }
+        for (b, (sum, w)) in sums.iter().zip(want).enumerate() {
+            let mean = sum / f64::from(count);
+            assert!((mean - w).abs() < 1e-4 * w, "branch {b}: {mean} against {w}");
+        }
+        let total: f64 = sums.iter().sum::<f64>() / f64::from(count);
+        assert!((total - (p_r + p_t)).abs() < 1e-4 * (p_r + p_t));
+    }
+
+    #[test]
+    fn the_cross_polarised_share_of_a_diffuse_wave_is_k_x() {
+        // A purely theta-polarised incident wave: the scattered field has K_x of its power on
+        // phi_hat and 1 - K_x on theta_hat of the scattered direction (Sionna RT's XPD matrix).
+        let k_in = DVec3::new(0.6, 0.0, -0.8);
+        let (t_in, _) = theta_phi_basis(k_in);
+        let e = FieldVec::from_component(Complex::new(0.3, -0.4), t_in);
+        for k_s in [DVec3::new(0.1, 0.5, 0.86).normalize(), DVec3::Z, DVec3::new(-0.7, 0.0, 0.7).normalize()] {
+            let (t_s, p_s) = theta_phi_basis(k_s);
+            assert!((t_s.cross(p_s) - k_s).length() < 1e-12);
+            for xpd in [0.0, 0.25, 1.0] {
+                let out = diffuse_polarization(&e, k_in, k_s, xpd);
+                assert!((out.power() - e.power()).abs() < 1e-12);
+                assert!((out.along(p_s).norm_sqr() - xpd * e.power()).abs() < 1e-12);
+                assert!((out.along(t_s).norm_sqr() - (1.0 - xpd) * e.power()).abs() < 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn lambertian_directions_follow_cos_theta_sin_theta() {
+        // The sampled zenith angle about a tilted normal has the density 2 cos(t) sin(t)
+        // (f_s = cos(t) / pi over the hemisphere): each 5-degree bin holds
+        // sin^2(t2) - sin^2(t1) of the samples, and the azimuth is uniform.
+        let n_out = DVec3::new(0.3, -0.2, 0.93).normalize();
+        let k_r = DVec3::new(0.5, 0.1, 0.2).normalize();
+        let mut rng = stream(11, 0, 0);
+        let mut uniform = || unit_f64(&mut rng);
+        let (a, _) = orthonormal_basis(n_out);
+        let samples = 1_000_000;
+        let (mut theta_bins, mut phi_bins) = ([0u32; 18], [0u32; 12]);
+        for _ in 0..samples {
+            let d = sample_pattern(ScatteringPattern::Lambertian, k_r, n_out, &mut uniform).unwrap();
+            assert!((d.length() - 1.0).abs() < 1e-12 && d.dot(n_out) >= 0.0);
+            let t = d.dot(n_out).clamp(-1.0, 1.0).acos();
+            theta_bins[((t / (FRAC_PI_2 / 18.0)) as usize).min(17)] += 1;
+            let tangent = d - d.dot(n_out) * n_out;
+            let phi = tangent.dot(n_out.cross(a)).atan2(tangent.dot(a)) + PI;
+            phi_bins[((phi / (TAU / 12.0)) as usize).min(11)] += 1;
+        }
+        let check = |count: u32, p: f64, what: &str| {
+            let expected = p * f64::from(samples);
+            let sigma = (expected * (1.0 - p)).sqrt();
+            assert!((f64::from(count) - expected).abs() < 4.0 * sigma + 1.0, "{what}: {count} against {expected}");
+        };
+        for (i, &c) in theta_bins.iter().enumerate() {
+            let (t1, t2) = (i as f64 * FRAC_PI_2 / 18.0, (i + 1) as f64 * FRAC_PI_2 / 18.0);
+            check(c, t2.sin().powi(2) - t1.sin().powi(2), &format!("theta bin {i}"));
+        }
+        for (i, &c) in phi_bins.iter().enumerate() {
+            check(c, 1.0 / 12.0, &format!("phi bin {i}"));
+        }
+    }
+
+    /// The integral of `f` over the hemisphere around +z (midpoint rule in theta and phi).
+    fn hemisphere_integral(steps: usize, f: impl Fn(DVec3) -> f64) -> f64 {
+        let (dt, dp) = (FRAC_PI_2 / steps as f64, TAU / steps as f64);
+        let mut sum = 0.0;
+        for i in 0..steps {
+            let t = (i as f64 + 0.5) * dt;
+            let (st, ct) = t.sin_cos();
+            for j in 0..steps {
+                let p = (j as f64 + 0.5) * dp;
+                sum += f(DVec3::new(st * p.cos(), st * p.sin(), ct)) * st;
+            }
+        }
+        sum * dt * dp
+    }
+
+    #[test]
+    fn scattering_patterns_integrate_to_one_over_the_hemisphere() {
+        for theta_i_deg in [0.0f64, 20.0, 45.0, 70.0, 85.0, 89.9] {
+            let t = theta_i_deg.to_radians();
+            let k_r = DVec3::new(t.sin(), 0.0, t.cos());
+            let mut patterns = vec![ScatteringPattern::Lambertian];
+            patterns.extend([1, 2, 3, 4, 7, 20, 50].map(|alpha_r| ScatteringPattern::Directive { alpha_r }));
+            for pattern in patterns {
+                let integral = hemisphere_integral(800, |k_s| pattern_density(pattern, k_r, DVec3::Z, k_s));
+                assert!((integral - 1.0).abs() < 1e-3, "{pattern:?} at {theta_i_deg} deg: {integral}");
+            }
+        }
+    }
+
+    #[test]
+    fn directive_directions_follow_the_normalised_pattern() {
+        // Samples binned in zenith (10 degrees) and azimuth (30 degrees) about the normal,
+        // against the pattern integrated over each bin; near grazing the rejection step
+        // discards about half of the lobe.
+        let mut rng = stream(12, 0, 0);
+        let mut uniform = || unit_f64(&mut rng);
+        for (theta_i_deg, alpha_r) in [(60.0f64, 5), (85.0, 2)] {
+            let pattern = ScatteringPattern::Directive { alpha_r };
+            let t = theta_i_deg.to_radians();
+            let k_r = DVec3::new(t.sin(), 0.0, t.cos());
+            let samples = 500_000;
+            let mut bins = [[0u32; 12]; 9];
+            for _ in 0..samples {
+                let d = sample_pattern(pattern, k_r, DVec3::Z, &mut uniform).unwrap();
+                let theta = d.z.clamp(-1.0, 1.0).acos();
+                let phi = d.y.atan2(d.x) + PI;
+                bins[((theta / (FRAC_PI_2 / 9.0)) as usize).min(8)][((phi / (TAU / 12.0)) as usize).min(11)] += 1;
+            }
+            for (i, row) in bins.iter().enumerate() {
+                for (j, &c) in row.iter().enumerate() {
+                    // The bin's probability: the pattern integrated over it (20 x 20 midpoints).
+                    let (t0, p0) = (i as f64 * FRAC_PI_2 / 9.0, j as f64 * TAU / 12.0 - PI);
+                    let (dt, dp) = (FRAC_PI_2 / 9.0 / 20.0, TAU / 12.0 / 20.0);
+                    let mut prob = 0.0;
+                    for a in 0..20 {
+                        let th = t0 + (f64::from(a) + 0.5) * dt;
+                        for b in 0..20 {
+                            let ph = p0 + (f64::from(b) + 0.5) * dp;
+                            let k_s = DVec3::new(th.sin() * ph.cos(), th.sin() * ph.sin(), th.cos());
+                            prob += pattern_density(pattern, k_r, DVec3::Z, k_s) * th.sin() * dt * dp;
+                        }
+                    }
+                    let expected = prob * f64::from(samples);
+                    let sigma = (expected * (1.0 - prob)).sqrt();
+                    assert!(
+                        (f64::from(c) - expected).abs() < 4.0 * sigma + 1e-3 * expected + 1.0,
+                        "{theta_i_deg} deg, alpha {alpha_r}, bin ({i}, {j}): {c} against {expected}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn without_diffuse_power_the_three_way_choice_is_the_two_way_one() {
+        for i in 0..1000 {
+            let u = (f64::from(i) + 0.5) / 1000.0;
+            for (p_r, p_t) in [(0.3, 0.05), (0.0, 0.2), (0.2, 0.0), (1e-13, 1e-14)] {
+                assert_eq!(choose_interaction(p_r, 0.0, p_t, u), choose_branch(p_r, p_t, u));
+            }
+        }
+        assert_eq!(choose_interaction(0.0, 0.0, 0.0, 0.5), None);
+        assert_eq!(choose_interaction(0.0, 0.3, 0.0, 0.999).map(|c| c.0), Some(Branch::Diffuse));
     }
 
     #[test]
