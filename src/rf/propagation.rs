@@ -580,7 +580,8 @@ mod tests {
         let k_in = DVec3::new(0.6, 0.0, -0.8);
         let (t_in, _) = theta_phi_basis(k_in);
         let e = FieldVec::from_component(Complex::new(0.3, -0.4), t_in);
-        for k_s in [DVec3::new(0.1, 0.5, 0.86).normalize(), DVec3::Z, DVec3::new(-0.7, 0.0, 0.7).normalize()] {
+        for k_s in [DVec3::new(0.1, 0.5, 0.86).normalize(), DVec3::Z, DVec3::new(-0.7, 0.0, 0.7).normalize()]
+        {
             let (t_s, p_s) = theta_phi_basis(k_s);
             assert!((t_s.cross(p_s) - k_s).length() < 1e-12);
             for xpd in [0.0, 0.25, 1.0] {
@@ -616,7 +617,10 @@ mod tests {
         let check = |count: u32, p: f64, what: &str| {
             let expected = p * f64::from(samples);
             let sigma = (expected * (1.0 - p)).sqrt();
-            assert!((f64::from(count) - expected).abs() < 4.0 * sigma + 1.0, "{what}: {count} against {expected}");
+            assert!(
+                (f64::from(count) - expected).abs() < 4.0 * sigma + 1.0,
+                "{what}: {count} against {expected}"
+            );
         };
         for (i, &c) in theta_bins.iter().enumerate() {
             let (t1, t2) = (i as f64 * FRAC_PI_2 / 18.0, (i + 1) as f64 * FRAC_PI_2 / 18.0);
@@ -673,7 +677,8 @@ mod tests {
                 let d = sample_pattern(pattern, k_r, DVec3::Z, &mut uniform).unwrap();
                 let theta = d.z.clamp(-1.0, 1.0).acos();
                 let phi = d.y.atan2(d.x) + PI;
-                bins[((theta / (FRAC_PI_2 / 9.0)) as usize).min(8)][((phi / (TAU / 12.0)) as usize).min(11)] += 1;
+                bins[((theta / (FRAC_PI_2 / 9.0)) as usize).min(8)]
+                    [((phi / (TAU / 12.0)) as usize).min(11)] += 1;
             }
             for (i, row) in bins.iter().enumerate() {
                 for (j, &c) in row.iter().enumerate() {
