@@ -295,7 +295,7 @@ fn diffuse_text(world: &World, config: &RfConfig) -> String {
         all.iter().enumerate().filter(|(id, _)| used.contains(&(*id as u32))).map(|(_, s)| *s).collect();
     let lo = in_use.iter().map(|s| s.scattering_coefficient).fold(f64::INFINITY, f64::min);
     let hi = in_use.iter().map(|s| s.scattering_coefficient).fold(f64::NEG_INFINITY, f64::max);
-    if !(hi > 0.0) {
+    if hi.is_nan() || hi <= 0.0 {
         return "off (S = 0)".into();
     }
     let source = if config.scattering_coefficient.is_some() {

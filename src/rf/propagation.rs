@@ -218,12 +218,10 @@ pub struct Interacted {
     pub direction: DVec3,
 }
 
-/// One interaction of the one-ray-per-path walk on `surface`: the incident field `e`
-/// travelling along the unit `k` meets the unit normal `n` (either side); `uniform` gives
-/// uniform numbers in [0, 1) and is called only when a choice is to be made (never on a
-/// purely specular opaque surface). The branch is drawn with probability proportional to
-/// its power and weighted by `1 / sqrt(q)` (docs/radio.md, secs. 2 and 4). `None`: the ray
-/// stops (an absorbing surface, or no power left).
+/// One interaction of the one-ray-per-path walk: the field `e` along the unit `k` meets
+/// `surface` (unit normal `n`, either side); the branch is drawn in proportion to the powers
+/// and weighted by `1 / sqrt(q)` (docs/radio.md, secs. 2 and 4). `uniform` is called only for
+/// a choice (never on a specular opaque surface); `None`: the ray stops.
 pub fn interaction(
     physics: &SurfacePhysics,
     surface: u32,
@@ -274,7 +272,7 @@ pub fn interaction(
             // `p_specular + p_diffuse + p_transmitted` as on the other branches.
             let total = p_specular + p_diffuse + p_transmitted;
             let carried = field.power();
-            if !(carried > 0.0) {
+            if carried.is_nan() || carried <= 0.0 {
                 return None;
             }
             Some(Interacted {
@@ -291,11 +289,9 @@ pub fn interaction(
 /// at least 1/2, so the cap is never reached in practice; the ray then stops).
 const MAX_PATTERN_DRAWS: u32 = 64;
 
-/// A unit vector drawn from the scattering pattern `f_s` over the hemisphere around `n_out`
-/// (the side of the incident wave), `k_r` the specular direction: cosine-weighted for the
-/// Lambertian pattern, and for the directive one drawn from `((1 + cos psi_R) / 2)^alpha_r`
-/// about `k_r` over the whole sphere (inverse CDF) and rejected below the surface, which
-/// leaves exactly the normalised `f_s` (Degli-Esposti et al. 2007; docs/radio.md, sec. 4).
+/// A unit vector drawn from the pattern `f_s` over the hemisphere of `n_out` (the incident
+/// side), `k_r` the specular direction: cosine-weighted (Lambertian), or the directive lobe
+/// about `k_r` by inverse CDF, rejected below the surface (docs/radio.md, sec. 4).
 pub fn sample_pattern(
     pattern: ScatteringPattern,
     k_r: DVec3,
@@ -330,10 +326,8 @@ pub fn sample_pattern(
     }
 }
 
-/// The scattering pattern `f_s(k_i, k_s)` per steradian, normalised over the hemisphere of
-/// `n_out` (the incident side): `cos(theta_s) / pi` (Lambertian) or
-/// `((1 + k_r . k_s) / 2)^alpha_r / F_alpha(theta_i)` (directive), Degli-Esposti et al. 2007
-/// eqs. as given in Sionna RT's EM primer; 0 below the surface.
+/// The pattern `f_s(k_i, k_s)` per steradian over the hemisphere of `n_out`: `cos / pi` or
+/// `((1 + k_r . k_s) / 2)^alpha / F_alpha` (Degli-Esposti et al. 2007 via Sionna RT's EM primer).
 pub fn pattern_density(pattern: ScatteringPattern, k_r: DVec3, n_out: DVec3, k_s: DVec3) -> f64 {
     let cos_s = k_s.dot(n_out);
     if cos_s <= 0.0 {
@@ -348,10 +342,8 @@ pub fn pattern_density(pattern: ScatteringPattern, k_r: DVec3, n_out: DVec3, k_s
     }
 }
 
-/// `F_alpha(theta_i) = 2^-alpha sum_k C(alpha, k) I_k`, the integral of
-/// `((1 + cos psi_R) / 2)^alpha` over the hemisphere, with `I_k = 2 pi / (k + 1)` for even `k`
-/// and `2 pi / (k + 1) cos(t) sum_w C(2w, w) sin^2w(t) / 2^2w` for odd `k` (Degli-Esposti et
-/// al. 2007; Sionna RT's EM primer, directive model).
+/// `F_alpha(theta_i) = 2^-alpha sum_k C(alpha, k) I_k`, the hemisphere integral of the
+/// directive lobe (Degli-Esposti et al. 2007 via Sionna RT's EM primer; docs/radio.md, sec. 4).
 fn directive_normalisation(alpha: u32, cos_theta_i: f64) -> f64 {
     let sin2 = 1.0 - cos_theta_i * cos_theta_i;
     let mut total = 0.0;
@@ -396,11 +388,9 @@ pub fn theta_phi_basis(k: DVec3) -> (DVec3, DVec3) {
     (DVec3::new(cos_t * cos_p, cos_t * sin_p, -sin_t), DVec3::new(-sin_p, cos_p, 0.0))
 }
 
-/// The polarisation of a diffusely scattered wave: the incident field's components on
-/// `(theta_hat, phi_hat)` of `k_in`, turned by the cross-polarisation matrix
-/// `[[sqrt(1 - K_x), -sqrt(K_x)], [sqrt(K_x), sqrt(1 - K_x)]]` onto `(theta_hat, phi_hat)` of
-/// `k_s` (Degli-Esposti et al. 2011 eq. 9 as in Sionna RT, without the random phases). The
-/// matrix is a rotation: the power is the incident field's transverse power.
+/// The diffusely scattered field: `e` on `(theta_hat, phi_hat)` of `k_in`, turned by the
+/// rotation `[[sqrt(1-K_x), -sqrt(K_x)], [sqrt(K_x), sqrt(1-K_x)]]` onto those of `k_s`
+/// (Degli-Esposti et al. 2011 eq. 9 as in Sionna RT, no random phases; docs/radio.md, sec. 4).
 pub fn diffuse_polarization(e: &FieldVec, k_in: DVec3, k_s: DVec3, xpd_coefficient: f64) -> FieldVec {
     let (t_in, p_in) = theta_phi_basis(k_in);
     let (t_s, p_s) = theta_phi_basis(k_s);
