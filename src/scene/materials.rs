@@ -38,7 +38,7 @@ pub struct AcousticProps {
 /// The lobe of a radio material's diffusely scattered power (Degli-Esposti et al. 2007, as in
 /// Sionna RT; docs/radio.md, sec. 4).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(tag = "pattern", rename_all = "snake_case")]
 pub enum ScatteringPattern {
     /// `f_s = cos(theta_s) / pi`, the most diffuse surface.
     #[default]
@@ -56,6 +56,8 @@ pub struct RadioScattering {
     pub scattering_coefficient: f64,
     /// `K_x` in [0, 1]: the fraction of the scattered power moved to the other polarisation.
     pub xpd_coefficient: f64,
+    /// Written as `"pattern": "lambertian"` or `"pattern": "directive", "alpha_r": N`.
+    #[serde(flatten)]
     pub pattern: ScatteringPattern,
 }
 
