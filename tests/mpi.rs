@@ -214,6 +214,21 @@ fn mpi_acoustic_is_byte_identical_for_1_2_and_3_ranks() {
 fn mpi_rf_is_byte_identical_for_1_2_and_3_ranks() {
     let scene = format!("{MANIFEST_DIR}/rooms/street_canyon/scene.toml");
     same_outputs_for_any_rank_count("rf", &["rf", &scene, "--rays", "300000", "--out", "out"]);
+    // Diffuse reflection draws its directions from each ray's own stream as well.
+    same_outputs_for_any_rank_count(
+        "rf-diffuse",
+        &[
+            "rf",
+            &scene,
+            "--rays",
+            "100000",
+            "--scattering-coefficient",
+            "0.6",
+            "--no-receivers",
+            "--out",
+            "out",
+        ],
+    );
 }
 
 #[test]

@@ -140,6 +140,29 @@ fn bad_inputs_are_one_line_errors() {
         args.extend(extra);
         assert_clean_error(&args, &["thin.toml", "concrete", "thickness_m", "positive"]);
     }
+    // The radio scattering keys are checked when the file is read: one line naming the file,
+    // the material and the key.
+    for (bad, key) in [
+        ("scattering_coefficient = 1.5", "scattering_coefficient 1.5"),
+        ("scattering_coefficient = nan", "scattering_coefficient NaN"),
+        ("scattering_coefficient = -0.2", "scattering_coefficient -0.2"),
+        ("xpd_coefficient = 1.01", "xpd_coefficient 1.01"),
+        ("scattering_coefficient = 0.3\nscattering_pattern = \"directive\"\nalpha_r = 0", "alpha_r 0"),
+        ("scattering_coefficient = 0.3\nscattering_pattern = \"glossy\"", "scattering_pattern"),
+    ] {
+        let file = dir.path().join("rough.toml");
+        std::fs::write(&file, format!("[materials.glass]\nitu = \"glass\"\n{bad}\n")).unwrap();
+        assert_clean_error(
+            &["rf", CANYON, "--materials", file.to_str().unwrap()],
+            &["rough.toml", "glass", key],
+        );
+    }
+    for bad in ["1.5", "-0.1", "nan"] {
+        assert_clean_error(
+            &["rf", CANYON, "--scattering-coefficient", bad],
+            &["--scattering-coefficient", "[0, 1]"],
+        );
+    }
     // Transmitter names name coverage.csv's columns: they must differ.
     let scene = two_transmitters_in_free_space(dir.path());
     let text = std::fs::read_to_string(&scene).unwrap().replace("TXB", "TXA");
@@ -210,6 +233,71 @@ fn transmission_is_on_by_default_and_the_flags_switch_it() {
     assert_ne!(thick, default);
     assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.3);
     assert_eq!(json["physics"]["transmission"], "on (0.3 m slabs, --wall-thickness-m)");
+}
+
+#[test]
+fn diffuse_reflection_is_off_unless_a_scattering_coefficient_is_given() {
+    // S = 0 in a materials file, or `--scattering-coefficient 0`, gives the default's bytes;
+    // S > 0 changes the map, and the summary and the title say where it comes from.
+    let dir = tempfile::tempdir().unwrap();
+    let run = |name: &str, extra: &[&str]| {
+        let out = dir.path().join(name);
+        let mut args =
+            vec!["rf", CANYON, "--rays", "100000", "--cell-m", "3", "--out", out.to_str().unwrap()];
+        args.extend(extra);
+        let (ok, _, err) = propsim(&args);
+        assert!(ok, "{err}");
+        let json: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("coverage.json")).unwrap()).unwrap();
+        (
+            std::fs::read(out.join("coverage.csv")).unwrap(),
+            std::fs::read(out.join("paths.csv")).unwrap(),
+            json,
+        )
+    };
+    let (default, default_paths, json) = run("default", &[]);
+    assert_eq!(json["physics"]["diffuse_reflection"], "off (S = 0)");
+    let zero = dir.path().join("zero.toml");
+    std::fs::write(&zero, "[materials.concrete]\nitu = \"concrete\"\nscattering_coefficient = 0\n").unwrap();
+    assert_eq!(run("zero", &["--materials", zero.to_str().unwrap()]).0, default);
+    assert_eq!(run("flag0", &["--scattering-coefficient", "0"]).0, default);
+    let rough = dir.path().join("rough.toml");
+    std::fs::write(
+        &rough,
+        "[materials.concrete]\nitu = \"concrete\"\nscattering_coefficient = 0.5\nxpd_coefficient = 0.2\n",
+    )
+    .unwrap();
+    let (map, paths, json) = run("rough", &["--materials", rough.to_str().unwrap()]);
+    assert_ne!(map, default);
+    // The point receivers keep the specular paths, each facade reflection at sqrt(1 - S^2).
+    assert_ne!(paths, default_paths);
+    assert_eq!(
+        json["physics"]["diffuse_reflection"],
+        "on (S = 0-0.5, lambertian, materials' scattering_coefficient)"
+    );
+    let concrete = json["surfaces"][0]["surfaces"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|s| s["material"] == "concrete")
+        .unwrap()
+        .clone();
+    assert_eq!(concrete["scattering"]["scattering_coefficient"], 0.5);
+    assert_eq!(concrete["scattering"]["xpd_coefficient"], 0.2);
+    assert_eq!(concrete["scattering"]["pattern"], "lambertian");
+    let (_, _, json) = run("flag", &["--scattering-coefficient", "0.7"]);
+    assert_eq!(json["physics"]["diffuse_reflection"], "on (S = 0.7, lambertian, --scattering-coefficient)");
+    // The diffuse draws come from each ray's own stream: the same bytes on 1 and 2 threads.
+    let threads = |n: &str| {
+        let out = dir.path().join(format!("threads{n}"));
+        let args = ["--threads", n, "rf", CANYON, "--rays", "100000", "--cell-m", "3", "--no-receivers"];
+        let (ok, _, err) = propsim(
+            &[&args[..], &["--scattering-coefficient", "0.7", "--out", out.to_str().unwrap()]].concat(),
+        );
+        assert!(ok, "{err}");
+        std::fs::read(out.join("coverage.csv")).unwrap()
+    };
+    assert_eq!(threads("1"), threads("2"));
 }
 
 #[test]

@@ -85,6 +85,10 @@ pub struct RfArgs {
     /// Slab thickness of every wall, m (default: each material's thickness_m, else 0.1).
     #[arg(long)]
     pub wall_thickness_m: Option<f64>,
+    /// Radio scattering coefficient S in [0, 1] of every surface (diffuse reflection; default:
+    /// each material's scattering_coefficient, else 0).
+    #[arg(long, allow_hyphen_values = true)]
+    pub scattering_coefficient: Option<f64>,
     /// Write the channel frequency response at the point receivers (cfr.csv) over this
     /// bandwidth, MHz, centred on the carrier.
     #[arg(long)]
@@ -139,6 +143,7 @@ impl RfArgs {
             extrapolate: self.extrapolate,
             no_transmission: self.no_transmission,
             wall_thickness_m: self.wall_thickness_m,
+            scattering_coefficient: self.scattering_coefficient,
             cfr_bandwidth_mhz: self.cfr_bandwidth_mhz,
             cfr_points: self.cfr_points,
             receivers: self.rx.clone(),

@@ -73,6 +73,9 @@ pub struct Overrides {
     pub no_transmission: bool,
     /// Slab thickness of every wall, metres, instead of the materials' `thickness_m`.
     pub wall_thickness_m: Option<f64>,
+    /// Radio scattering coefficient `S` of every surface, instead of the materials'
+    /// `scattering_coefficient` (docs/radio.md, sec. 4).
+    pub scattering_coefficient: Option<f64>,
     /// Bandwidth of the channel frequency response at the point receivers, MHz.
     pub cfr_bandwidth_mhz: Option<f64>,
     /// Frequency points of the channel frequency response (default [`DEFAULT_CFR_POINTS`]).
@@ -104,6 +107,9 @@ pub struct RfConfig {
     pub transmission: bool,
     /// Slab thickness of every wall, metres, overriding the materials' (`--wall-thickness-m`).
     pub wall_thickness_m: Option<f64>,
+    /// Scattering coefficient `S` of every surface, overriding the materials'
+    /// (`--scattering-coefficient`; diffuse reflection, docs/radio.md, sec. 4).
+    pub scattering_coefficient: Option<f64>,
     pub max_path_m: f64,
     pub receivers: Vec<PointReceiver>,
     /// The channel frequency response to write at the point receivers, if asked.
@@ -320,6 +326,11 @@ impl RfConfig {
             Some(t) => Some(positive(t, "--wall-thickness-m")?),
             None => None,
         };
+        if let Some(v) = o.scattering_coefficient
+            && !(0.0..=1.0).contains(&v)
+        {
+            return Err(format!("--scattering-coefficient {v}: must be a number in [0, 1]"));
+        }
         let cfr = match (o.cfr_bandwidth_mhz, o.cfr_points) {
             (None, None) => None,
             (None, Some(_)) => return Err("--cfr-points needs --cfr-bandwidth-mhz".into()),
@@ -374,6 +385,7 @@ impl RfConfig {
             extrapolate: o.extrapolate,
             transmission: !o.no_transmission,
             wall_thickness_m,
+            scattering_coefficient: o.scattering_coefficient,
             max_path_m: MAX_PATH_M,
             receivers,
             cfr,

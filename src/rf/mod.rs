@@ -33,7 +33,7 @@ use crate::core::specular::{Planes, affordable_order};
 use crate::dist::Cluster;
 use crate::scene::World;
 use crate::scene::itu::itu_lookup;
-use crate::scene::materials::RadioProps;
+use crate::scene::materials::{RadioProps, RadioScattering, ScatteringPattern};
 use fresnel::{C0, Complex, complex_permittivity};
 use propagation::{RadioPropagation, SurfacePhysics};
 use receivers::{PathSum, coherent_paths};
@@ -107,6 +107,24 @@ pub fn surface_thicknesses(world: &World, wall_thickness_m: Option<f64>) -> Vec<
         .collect()
 }
 
+/// The diffuse reflection of every surface of `world` (docs/radio.md, sec. 4): its material's
+/// `scattering_coefficient`, `xpd_coefficient` and pattern, with `S` replaced by
+/// `scattering_coefficient` when given (`--scattering-coefficient`); `S = 0` when not given.
+pub fn surface_scattering(world: &World, scattering_coefficient: Option<f64>) -> Vec<RadioScattering> {
+    world
+        .scene
+        .surfaces
+        .iter()
+        .map(|s| {
+            let mut sc = s.material.as_ref().and_then(|m| m.radio_scattering).unwrap_or_default();
+            if let Some(v) = scattering_coefficient {
+                sc.scattering_coefficient = v;
+            }
+            sc
+        })
+        .collect()
+}
+
 /// The radio constants a surface was simulated with.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SurfaceRadio {
@@ -122,6 +140,8 @@ pub struct SurfaceRadio {
     /// |R| and |T| of the slab at normal incidence, when walls transmit.
     pub normal_incidence_slab_reflection: Option<f64>,
     pub normal_incidence_slab_transmission: Option<f64>,
+    /// Diffuse reflection: `S`, `K_x` and the pattern (docs/radio.md, sec. 4).
+    pub scattering: RadioScattering,
 }
 
 /// One transmitter's share of a result.
@@ -197,6 +217,8 @@ pub struct PhysicsSettings {
     /// `on (THICKNESS, SOURCE)` or `off (opaque walls)`.
     pub transmission: String,
     pub diffraction: &'static str,
+    /// `off (S = 0)` or `on (S = ..., PATTERN, SOURCE)`: diffuse reflection (sec. 4).
+    pub diffuse_reflection: String,
 }
 
 impl PhysicsSettings {
@@ -208,17 +230,19 @@ impl PhysicsSettings {
             extrapolate: config.extrapolate,
             transmission: transmission_text(world, config),
             diffraction: "off (not implemented)",
+            diffuse_reflection: diffuse_text(world, config),
         }
     }
 
     /// One line for a picture's title.
     pub fn line(&self) -> String {
         format!(
-            "{} rays/tx, depth {} | transmission {} | diffraction {} | extrapolate {}",
+            "{} rays/tx, depth {} | transmission {} | diffraction {} | diffuse {} | extrapolate {}",
             self.rays_per_transmitter,
             self.max_depth,
             self.transmission,
             self.diffraction,
+            self.diffuse_reflection,
             if self.extrapolate { "on" } else { "off" }
         )
     }
@@ -261,6 +285,38 @@ fn transmission_text(world: &World, config: &RfConfig) -> String {
     }
 }
 
+/// `off (S = 0)`, or `on (S = 0.3, lambertian, --scattering-coefficient)` and the like: the
+/// surfaces' scattering coefficients in use, their patterns and where `S` comes from.
+fn diffuse_text(world: &World, config: &RfConfig) -> String {
+    let used: std::collections::BTreeSet<u32> =
+        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let all = surface_scattering(world, config.scattering_coefficient);
+    let in_use: Vec<RadioScattering> =
+        all.iter().enumerate().filter(|(id, _)| used.contains(&(*id as u32))).map(|(_, s)| *s).collect();
+    let lo = in_use.iter().map(|s| s.scattering_coefficient).fold(f64::INFINITY, f64::min);
+    let hi = in_use.iter().map(|s| s.scattering_coefficient).fold(f64::NEG_INFINITY, f64::max);
+    if hi.is_nan() || hi <= 0.0 {
+        return "off (S = 0)".into();
+    }
+    let source = if config.scattering_coefficient.is_some() {
+        "--scattering-coefficient"
+    } else {
+        "materials' scattering_coefficient"
+    };
+    let mut patterns: Vec<String> = in_use
+        .iter()
+        .filter(|s| s.scattering_coefficient > 0.0)
+        .map(|s| match s.pattern {
+            ScatteringPattern::Lambertian => "lambertian".to_string(),
+            ScatteringPattern::Directive { alpha_r } => format!("directive alpha_r {alpha_r}"),
+        })
+        .collect();
+    patterns.sort();
+    patterns.dedup();
+    let s = if lo == hi { format!("S = {hi}") } else { format!("S = {lo}-{hi}") };
+    format!("on ({s}, {}, {source})", patterns.join("/"))
+}
+
 /// Runs every transmitter of `config` over `world`; `progress` gets the number of rays done.
 pub fn simulate(
     world: &World,
@@ -296,6 +352,7 @@ pub fn simulate_on(
                 .transmission
                 .then(|| surface_thicknesses(world, config.wall_thickness_m)),
             wavelength_m,
+            scattering: surface_scattering(world, config.scattering_coefficient),
         };
         let t0 = std::time::Instant::now();
         let mut tx_cov = None;
@@ -363,6 +420,7 @@ pub fn simulate_on(
                         thickness_m: thickness,
                         normal_incidence_slab_reflection: slab.map(|c| c.r_te.abs()),
                         normal_incidence_slab_transmission: slab.map(|c| c.t_te.abs()),
+                        scattering: physics.scattering(id as u32),
                     }
                 })
             })

@@ -132,7 +132,8 @@ pub fn coherent_paths(
 }
 
 /// The field at the receiver of `path`: the antenna's field along the first leg, reflected
-/// at each point with the Fresnel coefficients of its surface at its incidence angle, times
+/// at each point with the Fresnel coefficients of its surface at its incidence angle (times
+/// `sqrt(1 - S^2)` on a scattering surface), times
 /// the free-space factor of the whole length; `None` when a surface has no radio data.
 fn path_field(path: &SpecularPath, physics: &SurfacePhysics, antenna: &Antenna) -> Option<FieldVec> {
     let points = path.points();
@@ -142,7 +143,9 @@ fn path_field(path: &SpecularPath, physics: &SurfacePhysics, antenna: &Antenna) 
         let dir = (points[k + 1] - points[k]).normalize();
         let basis = LocalBasis::new(dir, r.normal);
         let (r_te, r_tm, _) = physics.coefficients(r.surface, basis.cos_theta)?;
-        e = basis.reflect(&e, r_te, r_tm);
+        // A scattering surface keeps sqrt(1 - S^2) of the specular amplitude (sec. 4).
+        let reduction = physics.specular_factor(r.surface);
+        e = basis.reflect(&e, r_te.scale(reduction), r_tm.scale(reduction));
     }
     let length = path.length_m;
     let lambda = physics.wavelength_m;

@@ -18,6 +18,9 @@ pub const BAND_COUNT: usize = OCTAVE_BANDS_HZ.len();
 /// (a flat, smooth surface; cf. ISO 17497-1 and Vorlaender, Auralization, sec. 11.5).
 pub const DEFAULT_SCATTERING: f32 = 0.1;
 
+/// Largest `alpha_r` of a directive scattering pattern (a lobe about 10 degrees wide at 1000).
+pub const MAX_ALPHA_R: u32 = 1000;
+
 /// A value per octave band, 63 Hz to 8 kHz.
 pub type BandValues = [f32; BAND_COUNT];
 
@@ -30,6 +33,32 @@ pub struct AcousticProps {
     pub scattering: BandValues,
     /// Bands the source gave; others were filled by the nearest-band rule.
     pub bands_given: std::ops::Range<usize>,
+}
+
+/// The lobe of a radio material's diffusely scattered power (Degli-Esposti et al. 2007, as in
+/// Sionna RT; docs/radio.md, sec. 4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "pattern", rename_all = "snake_case")]
+pub enum ScatteringPattern {
+    /// `f_s = cos(theta_s) / pi`, the most diffuse surface.
+    #[default]
+    Lambertian,
+    /// `f_s ~ ((1 + cos psi_R) / 2)^alpha_r` around the specular direction, `alpha_r >= 1`.
+    Directive { alpha_r: u32 },
+}
+
+/// Radio diffuse reflection of a material (Sionna RT's `RadioMaterial` parameters): the
+/// scattering coefficient `S` (a fraction `S^2` of the reflected power is scattered), the
+/// cross-polarisation coefficient `K_x` and the pattern (docs/radio.md, sec. 4).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct RadioScattering {
+    /// `S` in [0, 1]; 0 (the default) is a purely specular surface.
+    pub scattering_coefficient: f64,
+    /// `K_x` in [0, 1]: the fraction of the scattered power moved to the other polarisation.
+    pub xpd_coefficient: f64,
+    /// Written as `"pattern": "lambertian"` or `"pattern": "directive", "alpha_r": N`.
+    #[serde(flatten)]
+    pub pattern: ScatteringPattern,
 }
 
 /// Radio data: an ITU-R P.2040-3 Table 3 material, or explicit constants.
@@ -87,6 +116,9 @@ pub struct Material {
     /// Thickness of a wall of this material, metres, for radio transmission through thin
     /// slabs (ITU-R P.2040-3 sec. 2.2.2.2); `None`: the simulator's default.
     pub thickness_m: Option<f64>,
+    /// Radio diffuse reflection (`scattering_coefficient` and friends); `None`: not given
+    /// (a specular surface, `S = 0`).
+    pub radio_scattering: Option<RadioScattering>,
     /// `None` when the material says nothing about light (the OBJ's MTL then decides).
     pub optical: Option<OpticalProps>,
 }
@@ -117,6 +149,14 @@ pub struct MaterialSpec {
     pub conductivity_s_per_m: Option<f64>,
     /// Wall thickness for radio transmission through thin slabs, metres (positive).
     pub thickness_m: Option<f64>,
+    /// Radio scattering coefficient `S` in [0, 1] (not the acoustic `scattering`).
+    pub scattering_coefficient: Option<f64>,
+    /// Radio cross-polarisation coefficient `K_x` in [0, 1].
+    pub xpd_coefficient: Option<f64>,
+    /// `"lambertian"` (default) or `"directive"` (with `alpha_r`).
+    pub scattering_pattern: Option<String>,
+    /// Width parameter of the directive pattern, an integer >= 1.
+    pub alpha_r: Option<i64>,
     pub color: Option<[f32; 3]>,
     pub kind: Option<OpticalKind>,
     pub roughness: Option<f32>,
@@ -196,6 +236,43 @@ fn coefficient_bands(
 }
 
 impl MaterialSpec {
+    /// The radio diffuse-reflection keys, checked: `None` when none is given.
+    fn radio_scattering(&self) -> Result<Option<RadioScattering>, String> {
+        if self.scattering_coefficient.is_none()
+            && self.xpd_coefficient.is_none()
+            && self.scattering_pattern.is_none()
+            && self.alpha_r.is_none()
+        {
+            return Ok(None);
+        }
+        let unit = |v: Option<f64>, key: &str| match v {
+            None => Ok(0.0),
+            Some(x) if (0.0..=1.0).contains(&x) => Ok(x),
+            Some(x) => Err(format!("{key} {x}: must be a number in [0, 1]")),
+        };
+        let scattering_coefficient = unit(self.scattering_coefficient, "scattering_coefficient")?;
+        let xpd_coefficient = unit(self.xpd_coefficient, "xpd_coefficient")?;
+        let pattern = match (self.scattering_pattern.as_deref(), self.alpha_r) {
+            (None | Some("lambertian"), None) => ScatteringPattern::Lambertian,
+            (None | Some("lambertian"), Some(_)) => {
+                return Err("alpha_r needs scattering_pattern = \"directive\"".into());
+            }
+            (Some("directive"), a) => {
+                let alpha_r = a.unwrap_or(1);
+                if !(1..=i64::from(MAX_ALPHA_R)).contains(&alpha_r) {
+                    return Err(format!("alpha_r {alpha_r}: must be an integer from 1 to {MAX_ALPHA_R}"));
+                }
+                ScatteringPattern::Directive { alpha_r: alpha_r as u32 }
+            }
+            (Some(other), _) => {
+                return Err(format!(
+                    "scattering_pattern \"{other}\": expected \"lambertian\" or \"directive\""
+                ));
+            }
+        };
+        Ok(Some(RadioScattering { scattering_coefficient, xpd_coefficient, pattern }))
+    }
+
     /// Checks and resolves the entry called `name`.
     pub fn resolve(&self, name: &str) -> Result<Material, String> {
         let bands_hz = self.bands_hz.as_deref();
@@ -242,6 +319,7 @@ impl MaterialSpec {
         {
             return Err(format!("thickness_m {t}: must be a positive number of metres"));
         }
+        let radio_scattering = self.radio_scattering()?;
         let optical_given = self.color.is_some()
             || self.kind.is_some()
             || self.emission.is_some()
@@ -276,6 +354,7 @@ impl MaterialSpec {
             acoustic,
             radio,
             thickness_m: self.thickness_m,
+            radio_scattering,
             optical,
         })
     }
@@ -391,6 +470,39 @@ mod tests {
         }
         let m = spec("[materials.x]\nitu = \"concrete\"\nthickness_m = 0.25\n").unwrap();
         assert_eq!(m.thickness_m, Some(0.25));
+    }
+
+    #[test]
+    fn radio_scattering_keys_are_checked_and_distinct_from_the_acoustic_ones() {
+        let m = spec("[materials.x]\nitu = \"concrete\"\n").unwrap();
+        assert_eq!(m.radio_scattering, None);
+        let m =
+            spec("[materials.x]\nitu = \"concrete\"\nscattering_coefficient = 0.4\nxpd_coefficient = 0.1\n")
+                .unwrap();
+        let want = RadioScattering {
+            scattering_coefficient: 0.4,
+            xpd_coefficient: 0.1,
+            pattern: ScatteringPattern::Lambertian,
+        };
+        assert_eq!(m.radio_scattering, Some(want));
+        assert_eq!(m.acoustic, None);
+        let m = spec(
+            "[materials.x]\nscattering_coefficient = 1\nscattering_pattern = \"directive\"\nalpha_r = 4\n",
+        )
+        .unwrap();
+        assert_eq!(m.radio_scattering.unwrap().pattern, ScatteringPattern::Directive { alpha_r: 4 });
+        for (bad, key) in [
+            ("scattering_coefficient = 1.5", "scattering_coefficient"),
+            ("scattering_coefficient = -0.1", "scattering_coefficient"),
+            ("scattering_coefficient = nan", "scattering_coefficient"),
+            ("xpd_coefficient = 2", "xpd_coefficient"),
+            ("scattering_pattern = \"directive\"\nalpha_r = 0", "alpha_r"),
+            ("alpha_r = 3", "alpha_r"),
+            ("scattering_pattern = \"glossy\"", "scattering_pattern"),
+        ] {
+            let e = spec(&format!("[materials.x]\nitu = \"concrete\"\n{bad}\n")).unwrap_err();
+            assert!(e.contains(key) && !e.contains('\n'), "{bad}: {e}");
+        }
     }
 
     #[test]
