@@ -12,6 +12,7 @@ use super::tracer::{SoundPropagation, SurfaceAcoustics, TraceRecord};
 use crate::core::fixed::from_fixed;
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
 use crate::core::specular::{Planes, affordable_order};
+use crate::core::visibility::triangles_in_full_view;
 use crate::core::{Sphere, TimeBins};
 use crate::dist::Cluster;
 use crate::scene::World;
@@ -300,6 +301,12 @@ pub fn simulate_on(
     };
     let ism_order =
         if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
+    // Which triangles each receiver sees whole: their rain needs no occlusion ray.
+    let rain_in_view: Vec<Option<Vec<bool>>> = if settings.diffuse_rain {
+        spheres.iter().map(|r| triangles_in_full_view(&scene.mesh, &scene.spheres, r.center)).collect()
+    } else {
+        Vec::new()
+    };
     let mut pairs = Vec::new();
     let mut escaped = 0.0;
     let mut segments = 0u64;
@@ -317,6 +324,7 @@ pub fn simulate_on(
             roulette_factor: 10f64.powf(-settings.roulette_db / 10.0) as f32,
             scene_bounds: (lo - margin, hi + margin),
             diffuse_rain: settings.diffuse_rain.then_some(&world.accel),
+            rain_in_view: &rain_in_view,
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),

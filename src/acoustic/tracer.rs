@@ -95,6 +95,9 @@ pub struct SoundPropagation<'a> {
     /// energy is sent straight to every receiver in view, tested for occlusion in this
     /// scene. `None`: receivers count only the rays that cross them.
     pub diffuse_rain: Option<&'a Accel>,
+    /// Per receiver, the triangles wholly in its view ([`crate::core::visibility::triangles_in_full_view`]): rain
+    /// from them needs no occlusion ray. Empty (or `None` for a receiver): trace them all.
+    pub rain_in_view: &'a [Option<Vec<bool>>],
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -304,10 +307,15 @@ impl SoundPropagation<'_> {
             let one_minus_cos_gamma = sin_gamma * sin_gamma / (1.0 + (1.0 - sin_gamma * sin_gamma).sqrt());
             let fluence_per_j =
                 cos_theta * 2.0 * one_minus_cos_gamma / (std::f32::consts::PI * s.radius_m * s.radius_m);
-            let mut shadow = Ray::spawn_to(hit.point, hit.normal, s.center);
-            shadow.t_max = (shadow.t_max - s.radius_m).max(0.0);
-            if accel.occluded(&shadow) {
-                continue;
+            let in_view = hit.kind == PrimitiveKind::Triangle
+                && self.rain_in_view.get(i).and_then(Option::as_ref).and_then(|t| t.get(hit.primitive as usize))
+                    == Some(&true);
+            if !in_view {
+                let mut shadow = Ray::spawn_to(hit.point, hit.normal, s.center);
+                shadow.t_max = (shadow.t_max - s.radius_m).max(0.0);
+                if accel.occluded(&shadow) {
+                    continue;
+                }
             }
             let Some(bin) = self.bins.bin_of_path(f64::from(path_m + d)) else { continue };
             let mut energy = [0.0; BAND_COUNT];

@@ -231,7 +231,7 @@ impl MeshBvh {
     }
 
     /// The closest hit as (leaf, lane, distance, barycentrics).
-    #[inline]
+    #[inline(always)]
     fn closest_lane(&self, ray: &Ray) -> Option<ClosestLane> {
         if let Some(room) = &self.convex {
             match room.exit(ray.origin, ray.dir, ray.t_min, ray.t_max) {
@@ -255,6 +255,7 @@ impl MeshBvh {
     }
 
     /// The hit on triangle `lane` of leaf `(first, count)`.
+    #[inline(always)]
     fn make_hit(&self, (first, count, lane): (u32, u32, u32), t: f32, uv: Vec2, ray: &Ray) -> Hit {
         let slot = (first + lane) as usize;
         let normal = match self.flat_normals.get(slot) {
@@ -273,6 +274,7 @@ impl MeshBvh {
         }
     }
 
+    #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         self.closest_lane(ray).map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, ray))
     }
@@ -528,6 +530,7 @@ impl SphereSet {
         }
     }
 
+    #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let mut best: Option<Hit> = None;
         let mut r = *ray;
@@ -578,7 +581,9 @@ impl Accel {
         Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres) }
     }
 
-    /// The closest triangle or sphere hit in `(t_min, t_max]`.
+    /// The closest triangle or sphere hit in `(t_min, t_max]` (inlined into the launcher's
+    /// AVX2 loop).
+    #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let tri = self.mesh.closest_hit(ray);
         if self.spheres.is_empty() {

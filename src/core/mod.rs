@@ -24,6 +24,7 @@ pub mod time_bins;
 #[allow(unsafe_code)]
 pub mod traverse;
 pub mod triangle;
+pub mod visibility;
 
 pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
 pub use hit::{Hit, PrimitiveKind, SurfaceId};

@@ -1,0 +1,179 @@
+//! Triangles wholly in view of a point: no other primitive meets the solid spanned by the
+//! triangle and the point (a tetrahedron), so every segment from the triangle to the point
+//! is clear and a simulator can skip its shadow ray. The test is the separating-axis theorem
+//! for two convex polyhedra (Gottschalk, Lin and Manocha, OBBTree, SIGGRAPH 1996; Ericson,
+//! Real-Time Collision Detection, sec. 5.2.1; docs/performance.md): face normals of both and
+//! cross products of their edges. Touching (a neighbour sharing an edge) is not meeting.
+
+use glam::{DVec3, Vec3};
+use rayon::prelude::*;
+
+use super::mesh::TriangleMesh;
+use super::sphere::Sphere;
+
+/// Above this many triangle pairs per point the table is not made (it costs more than the
+/// shadow rays it saves on any plausible run); the caller then traces every shadow ray.
+pub const MAX_PAIRS_PER_POINT: usize = 4_000_000;
+
+/// For each triangle of `mesh`, whether it is wholly in view of `point` (see the module
+/// doc); `None` when the mesh is too large for the table. Conservative: `false` only means
+/// "trace the ray". A sphere whose box meets the solid's box counts as in the way.
+pub fn triangles_in_full_view(mesh: &TriangleMesh, spheres: &[Sphere], point: Vec3) -> Option<Vec<bool>> {
+    let n = mesh.triangle_count();
+    if n.saturating_mul(n) > MAX_PAIRS_PER_POINT {
+        return None;
+    }
+    let corners: Vec<[DVec3; 3]> = (0..n).map(|i| mesh.corners(i).map(|v| v.as_dvec3())).collect();
+    let boxes: Vec<(DVec3, DVec3)> = corners.iter().map(|c| bounds(c)).collect();
+    let size = boxes.iter().map(|(lo, hi)| lo.abs().max(hi.abs()).max_element()).fold(1.0, f64::max);
+    let tolerance = 1e-7 * size;
+    let p = point.as_dvec3();
+    let table = (0..n)
+        .into_par_iter()
+        .map(|i| {
+            let solid = [corners[i][0], corners[i][1], corners[i][2], p];
+            let (lo, hi) = bounds(&solid);
+            let (lo, hi) = (lo - DVec3::splat(tolerance), hi + DVec3::splat(tolerance));
+            let blocked_by_triangle = (0..n).any(|j| {
+                j != i
+                    && boxes[j].0.cmple(hi).all()
+                    && boxes[j].1.cmpge(lo).all()
+                    && !separated(&solid, &corners[j], tolerance)
+            });
+            let blocked_by_sphere = spheres.iter().any(|s| {
+                let (c, r) = (s.center.as_dvec3(), f64::from(s.radius_m));
+                (c - DVec3::splat(r)).cmple(hi).all() && (c + DVec3::splat(r)).cmpge(lo).all()
+            });
+            !blocked_by_triangle && !blocked_by_sphere
+        })
+        .collect();
+    Some(table)
+}
+
+fn bounds(points: &[DVec3]) -> (DVec3, DVec3) {
+    let lo = points.iter().fold(DVec3::INFINITY, |a, b| a.min(*b));
+    let hi = points.iter().fold(DVec3::NEG_INFINITY, |a, b| a.max(*b));
+    (lo, hi)
+}
+
+/// Whether the tetrahedron `solid` and the triangle `tri` are apart, or only touch (their
+/// projections overlap by at most `tolerance` on some axis). Any NaN gives "not apart".
+fn separated(solid: &[DVec3; 4], tri: &[DVec3; 3], tolerance: f64) -> bool {
+    let [a, b, c, d] = *solid;
+    let solid_edges = [b - a, c - a, d - a, c - b, d - b, d - c];
+    let tri_edges = [tri[1] - tri[0], tri[2] - tri[1], tri[0] - tri[2]];
+    let solid_faces = [(b - a).cross(c - a), (b - a).cross(d - a), (c - a).cross(d - a), (c - b).cross(d - b)];
+    let apart_on = |axis: DVec3| {
+        let length = axis.length();
+        if length.is_nan() || length <= 1e-12 * size_of(solid) {
+            return false;
+        }
+        let axis = axis / length;
+        let (s_lo, s_hi) = interval(solid.iter(), axis);
+        let (t_lo, t_hi) = interval(tri.iter(), axis);
+        s_hi <= t_lo + tolerance || t_hi <= s_lo + tolerance
+    };
+    if solid_faces.iter().any(|&n| apart_on(n)) || apart_on(tri_edges[0].cross(tri_edges[1])) {
+        return true;
+    }
+    solid_edges.iter().any(|&e| tri_edges.iter().any(|&f| apart_on(e.cross(f))))
+}
+
+/// The squared scale of `solid` (for the degenerate-axis test of cross products).
+fn size_of(solid: &[DVec3; 4]) -> f64 {
+    let (lo, hi) = bounds(solid);
+    (hi - lo).length_squared()
+}
+
+fn interval<'a>(points: impl Iterator<Item = &'a DVec3>, axis: DVec3) -> (f64, f64) {
+    points.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| {
+        let x = p.dot(axis);
+        (lo.min(x), hi.max(x))
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::accel::{Accel, BuildQuality};
+    use crate::core::ray::Ray;
+    use crate::core::rng::{stream, uniform};
+    use crate::core::sampling::uniform_triangle;
+    use glam::Vec2;
+
+    /// A box room with a smaller box standing on its floor (an obstacle).
+    fn room_with_obstacle() -> TriangleMesh {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("wall");
+        mesh.push_box(Vec3::new(-4.0, -3.0, 0.0), Vec3::new(5.0, 4.0, 3.0), 2, s);
+        mesh.flip_winding();
+        mesh.push_box(Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 2.0, 1.2), 1, s);
+        mesh
+    }
+
+    #[test]
+    fn a_triangle_in_full_view_has_every_point_in_view_and_the_table_is_not_empty() {
+        let mesh = room_with_obstacle();
+        let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+        let receiver = Vec3::new(-2.5, 2.0, 1.5);
+        let table = triangles_in_full_view(&mesh, &[], receiver).unwrap();
+        let visible = table.iter().filter(|&&v| v).count();
+        // Most of the room's inner faces see the receiver; the obstacle's far faces do not.
+        assert!(visible > mesh.triangle_count() / 2, "{visible} of {}", mesh.triangle_count());
+        assert!(visible < mesh.triangle_count());
+        let mut rng = stream(3, 0, 0);
+        let mut checked = 0;
+        for (i, &in_view) in table.iter().enumerate() {
+            let [a, b, c] = mesh.corners(i);
+            let n = (b - a).cross(c - a).normalize();
+            for _ in 0..200 {
+                let uv = uniform_triangle(Vec2::new(uniform(&mut rng), uniform(&mut rng)));
+                let x = a + uv.x * (b - a) + uv.y * (c - a);
+                let side = if n.dot(receiver - x) > 0.0 { n } else { -n };
+                let ray = Ray::spawn_to(x, side, receiver);
+                if in_view {
+                    assert!(!accel.occluded(&ray), "triangle {i} said in view, point {x} blocked");
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 1000);
+    }
+
+    #[test]
+    fn a_triangle_behind_an_obstacle_or_a_sphere_is_not_in_full_view() {
+        let mesh = room_with_obstacle();
+        let receiver = Vec3::new(-2.5, 1.0, 0.6);
+        let table = triangles_in_full_view(&mesh, &[], receiver).unwrap();
+        // The room's wall at x = 5 behind the obstacle (seen from the receiver, at the
+        // obstacle's height) is partly hidden: every triangle of that wall containing the
+        // point (5, 1, 0.6) must be marked not in view.
+        for (i, &in_view) in table.iter().enumerate() {
+            let [a, b, c] = mesh.corners(i);
+            if [a, b, c].iter().all(|v| v.x == 5.0) && crate::core::TriangleRt::new(a, b, c)
+                .intersect(&Ray::new(Vec3::new(4.0, 1.0, 0.6), Vec3::X))
+                .is_some()
+            {
+                assert!(!in_view, "triangle {i} behind the obstacle");
+            }
+        }
+        // A sphere in the middle of the room hides (conservatively) what is behind it.
+        let sphere = Sphere::new(Vec3::new(-1.0, 1.0, 0.6), 0.3, 0);
+        let with = triangles_in_full_view(&mesh, &[sphere], receiver).unwrap();
+        assert!(with.iter().filter(|&&v| v).count() < table.iter().filter(|&&v| v).count());
+    }
+
+    #[test]
+    fn touching_is_not_meeting_but_crossing_is() {
+        let solid = [DVec3::ZERO, DVec3::X, DVec3::Y, DVec3::new(0.2, 0.2, 1.0)];
+        // A triangle sharing the edge (0,0,0)-(1,0,0), on the other side of the plane y = 0.
+        let neighbour = [DVec3::ZERO, DVec3::X, DVec3::new(0.5, -1.0, 0.3)];
+        assert!(separated(&solid, &neighbour, 1e-9));
+        // A triangle piercing the solid.
+        let piercing = [DVec3::new(0.2, 0.2, -1.0), DVec3::new(0.3, 0.2, 2.0), DVec3::new(0.2, 0.3, 2.0)];
+        assert!(!separated(&solid, &piercing, 1e-9));
+        // Far away.
+        let far = [DVec3::splat(5.0), DVec3::splat(6.0), DVec3::new(5.0, 6.0, 5.0)];
+        assert!(separated(&solid, &far, 1e-9));
+    }
+}
