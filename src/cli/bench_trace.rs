@@ -262,6 +262,11 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
         "--ray-count {}: must be between 1 and 10^8",
         args.ray_count
     );
+    anyhow::ensure!(
+        (1..=1000).contains(&args.repeat),
+        "--repeat {}: must be between 1 and 1000",
+        args.repeat
+    );
     let (mesh, label) = match &args.mesh {
         Some(p) => {
             let obj = load_obj(p)?;
