@@ -524,6 +524,7 @@ fn commands(scene: &Path, out: &Path) -> Vec<Vec<String>> {
             "1",
             "--png-width",
             "300",
+            "--extrapolate",
             "--out",
             &o("f"),
         ]),

@@ -265,8 +265,10 @@ impl RfConfig {
         } else {
             for t in &rf.transmitters {
                 let who = format!("transmitter \"{}\"", t.name);
-                let freq_ghz =
-                    positive(o.freq_ghz.or(t.freq_ghz).or(scene_freq).unwrap_or(DEFAULT_FREQ_GHZ), &who)?;
+                let freq_ghz = positive(
+                    o.freq_ghz.or(t.freq_ghz).or(scene_freq).unwrap_or(DEFAULT_FREQ_GHZ),
+                    &format!("{who}: frequency (--freq-ghz)"),
+                )?;
                 let kind = o.antenna.as_deref().or(t.antenna.as_deref());
                 let pol = o.polarization.as_deref().or(t.polarization.as_deref());
                 transmitters.push(Transmitter {
