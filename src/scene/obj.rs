@@ -340,3 +340,41 @@ fn nth_vertex_line(text: &str, index: usize) -> String {
 fn parses_finite(rest: &str) -> bool {
     rest.split_whitespace().all(|v| v.parse::<f32>().is_ok_and(f32::is_finite))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mtl_lines_are_checked_with_their_line_numbers() {
+        assert_eq!(
+            check_mtl("newmtl m\nKd 0.5 0.5 0.5\nKe 4 4 4\nNs 10\nd 1\nillum 2\nmap_Kd x.png\n"),
+            Ok(())
+        );
+        for (text, needle) in [
+            ("newmtl m\nKd 0.5\n", "line 2: Kd 0.5: expected three numbers"),
+            ("newmtl m\n\nKs 0.1 0.2\n", "line 3: Ks 0.1 0.2: expected three numbers"),
+            ("Kd nan -5 1e40\n", "line 1: Kd value \"nan\" is not a finite number"),
+            ("Kd 1e40 0 0\n", "not a finite number"),
+            ("Kd 0.5 1.5 0.5\n", "[0, 1]"),
+            ("Ke -1 0 0\n", "negative"),
+            ("Ns\n", "expected one number"),
+            ("Ni -1\n", "0 or above"),
+            ("d 1.5\n", "[0, 1]"),
+            ("illum 99\n", "illumination model"),
+            ("newmtl\n", "needs a name"),
+        ] {
+            let e = check_mtl(text).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_panic_in_the_parser_becomes_an_error() {
+        let r: Result<(), String> = without_panics(|| panic!("index out of bounds"));
+        assert!(r.unwrap_err().contains("index out of bounds"));
+        assert_eq!(without_panics(|| 7), Ok(7));
+        // The thread is no longer quiet afterwards.
+        assert!(!QUIET.with(|q| q.get()));
+    }
+}
