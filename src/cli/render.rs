@@ -15,9 +15,8 @@ use crate::scene::{self, LoadOptions, World};
 pub const DEFAULT_RENDER_SCENE: &str = "builtin:cornell_box_classic";
 /// Image size when neither the scene nor the command line gives one.
 pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
-/// Memory a render holds per pixel, bytes: the film and the tiles' results (12 bytes of float
-/// RGB each, both alive while the tiles are copied in) and the 8-bit image written from them.
-/// Measured: 16384 x 16384 peaked at 6.4 GB.
+/// Memory a render holds per pixel, bytes: film and tile results (12 bytes of float RGB each)
+/// and the 8-bit image written from them (16384 x 16384 peaked at 6.4 GB).
 pub const BYTES_PER_PIXEL: u64 = 28;
 /// Vertical field of view of the automatic camera, degrees.
 pub const AUTO_FOV_DEG: f32 = 40.0;

@@ -97,15 +97,15 @@ pub fn check_mtl(text: &str) -> Result<(), String> {
                 if v.len() != 1 {
                     return bad("expected one number");
                 }
-                if v[0] < 0.0 || matches!(key, "d" | "Tr") && v[0] > 1.0 {
-                    let range = if matches!(key, "d" | "Tr") { "[0, 1]" } else { "0 or above" };
-                    return bad(&format!("must be in {range}"));
+                if matches!(key, "d" | "Tr") && !(0.0..=1.0).contains(&v[0]) {
+                    return bad("must be in [0, 1]");
+                }
+                if v[0] < 0.0 {
+                    return bad("must be 0 or above");
                 }
             }
-            "illum" => {
-                if !matches!(values[..], [v] if v.parse::<u8>().is_ok_and(|n| n <= 10)) {
-                    return bad("expected an illumination model from 0 to 10");
-                }
+            "illum" if !matches!(values[..], [v] if v.parse::<u8>().is_ok_and(|n| n <= 10)) => {
+                return bad("expected an illumination model from 0 to 10");
             }
             _ => {}
         }
