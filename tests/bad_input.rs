@@ -204,6 +204,7 @@ catalogue! {
     rf_rays_zero: case(&["rf", "{shoebox}", "--rays", "0", "--out", "{out}"], &["--rays 0"]);
     rf_max_depth_absurd: case(&["rf", "{shoebox}", "--max-depth", "1000", "--out", "{out}"], &["--max-depth 1000"]);
     rf_wall_thickness_negative: case(&["rf", "{shoebox}", "--wall-thickness-m", "-0.1", "--out", "{out}"], &["--wall-thickness-m"]);
+    rf_tx_power_absurd: case(&["rf", "{shoebox}", "--tx-power-dbm", "1e300", "--out", "{out}"], &["--tx-power-dbm", "dBm"]);
     rf_cfr_points_zero: case(&["rf", "{shoebox}", "--cfr-bandwidth-mhz", "10", "--cfr-points", "0", "--out", "{out}"], &["--cfr-points 0"]);
     bench_trace_repeat_zero: case(&["bench", "trace", "--repeat", "0"], &["--repeat 0"]);
     bench_trace_ray_count_zero: case(&["bench", "trace", "--ray-count", "0"], &["--ray-count 0"]);
@@ -293,6 +294,9 @@ catalogue! {
     scene_sphere_radius_zero: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[spheres]]\ncenter = [1, 1, 1]\nradius_m = 0\nmaterial = \"concrete\"\n")],
         &["s.toml", "radius 0"]);
+    scene_light_intensity_negative: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[lights]]\nposition = [1, 1, 1]\nintensity = [-30, 1e38, 30]\n")],
+        &["s.toml", "light 1", "intensity"]);
     scene_render_width_zero: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[render]\nwidth = 0\n")],
         &["s.toml", "width 0"]);

@@ -540,8 +540,13 @@ fn commands(scene: &Path, out: &Path) -> Vec<Vec<String>> {
     ]
 }
 
-/// Subprocess runs: the number of mutated rooms per command (each through all four).
+/// Mutated rooms run through all four commands at the default size; more in proportion
+/// with `PROPSIM_FUZZ_CASES`.
 const SIMULATOR_CASES: u64 = 32;
+
+fn simulator_cases() -> u64 {
+    (SIMULATOR_CASES * cases() / DEFAULT_CASES).max(SIMULATOR_CASES)
+}
 
 /// One mutated room (the scene, its OBJ or its MTL) in `dir`, from `seed`; returns the scene.
 fn mutated_room(dir: &Path, seed: u64) -> PathBuf {
@@ -566,7 +571,7 @@ fn mutated_rooms_through_every_simulator() {
     let dir = scratch();
     let mut failures = Vec::new();
     let started = Instant::now();
-    for seed in 0..SIMULATOR_CASES {
+    for seed in 0..simulator_cases() {
         let scene = mutated_room(dir.path(), seed);
         let out = dir.path().join(format!("out_{seed}"));
         for args in commands(&scene, &out) {
@@ -588,7 +593,7 @@ fn mutated_rooms_through_every_simulator() {
     }
     eprintln!(
         "fuzz simulators: {} mutated rooms x 4 commands in {:.1} s",
-        SIMULATOR_CASES,
+        simulator_cases(),
         started.elapsed().as_secs_f64()
     );
     assert!(failures.is_empty(), "{failures:#?}");

@@ -12,6 +12,8 @@ use crate::scene::World;
 pub const DEFAULT_FREQ_GHZ: f64 = 3.5;
 /// Transmit power when none is given, dBm.
 pub const DEFAULT_POWER_DBM: f64 = 30.0;
+/// Largest transmit power, and the smallest's magnitude, dBm (100 dBm is 10 MW).
+pub const MAX_POWER_DBM: f64 = 100.0;
 /// Grid height when none is given, metres.
 pub const DEFAULT_GRID_HEIGHT_M: f64 = 1.5;
 /// Cell size when none is given, metres.
@@ -288,6 +290,12 @@ impl RfConfig {
         for t in &transmitters {
             if !t.position.is_finite() || !t.power_dbm.is_finite() {
                 return Err(format!("transmitter \"{}\": position and power must be finite", t.name));
+            }
+            if !(-MAX_POWER_DBM..=MAX_POWER_DBM).contains(&t.power_dbm) {
+                return Err(format!(
+                    "transmitter \"{}\": power {} dBm (--tx-power-dbm): must be between -{MAX_POWER_DBM} and {MAX_POWER_DBM} dBm",
+                    t.name, t.power_dbm
+                ));
             }
             world.check_clearance(&format!("transmitter \"{}\"", t.name), t.position.as_vec3())?;
         }
