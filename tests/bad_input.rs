@@ -208,6 +208,12 @@ catalogue! {
     rf_cfr_points_zero: case(&["rf", "{shoebox}", "--cfr-bandwidth-mhz", "10", "--cfr-points", "0", "--out", "{out}"], &["--cfr-points 0"]);
     bench_trace_repeat_zero: case(&["bench", "trace", "--repeat", "0"], &["--repeat 0"]);
     bench_trace_ray_count_zero: case(&["bench", "trace", "--ray-count", "0"], &["--ray-count 0"]);
+    bench_trace_beyond_the_memory: Case {
+        args: &["bench", "trace", "--triangles", "100000000"],
+        files: &[],
+        needles: &["100000000 triangles", "memory", "PROPSIM_MAX_MEMORY_MB"],
+        env: &[("PROPSIM_MAX_MEMORY_MB", "1000")],
+    };
     bench_render_repeat_zero: case(&["bench", "render", "--repeat", "0"], &["--repeat 0"]);
     bench_rf_repeat_zero: case(&["bench", "rf", "{shoebox}", "--repeat", "0"], &["--repeat 0"]);
     bench_acoustic_rays_zero: case(&["bench", "acoustic", "{shoebox}", "--rays", "0"], &["--rays 0"]);
