@@ -269,6 +269,7 @@ pub fn simulate_on(
         if world.is_inside(v) == Some(false) {
             return Err(format!("{kind} \"{name}\" at ({}, {}, {}) is outside the room", v.x, v.y, v.z));
         }
+        world.check_clearance(&format!("{kind} \"{name}\""), v)?;
         if let Some(s) = scene.spheres.iter().find(|s| s.contains(v)) {
             return Err(format!(
                 "{kind} \"{name}\" at ({}, {}, {}) is inside the sphere of material \"{}\" at ({}, {}, {})",

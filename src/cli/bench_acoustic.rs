@@ -30,6 +30,16 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
     } else {
         args.scenes.clone()
     };
+    anyhow::ensure!(
+        (1..=1000).contains(&args.repeat),
+        "--repeat {}: must be between 1 and 1000",
+        args.repeat
+    );
+    anyhow::ensure!(
+        (1..=1_000_000_000).contains(&args.rays),
+        "--rays {}: must be between 1 and 10^9",
+        args.rays
+    );
     crate::outln!("threads: {}", rayon::current_num_threads());
     for path in scenes {
         let world = World::build(scene::load(&path, &LoadOptions::default())?);
@@ -48,7 +58,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
         let mut times = Vec::new();
         let mut pairs = 0;
         let mut segments = 0;
-        for _ in 0..args.repeat.max(1) {
+        for _ in 0..args.repeat {
             let t = Instant::now();
             let r = simulate(&world, &sources, &receivers, &settings, &|_| {})
                 .map_err(|e| anyhow::anyhow!("{}: {e}", path.display()))?;
@@ -67,7 +77,7 @@ pub fn run(args: &BenchAcousticArgs) -> anyhow::Result<()> {
             pairs,
             args.rays,
             wall,
-            args.repeat.max(1),
+            args.repeat,
             rays as f64 / wall,
             segments as f64 / wall / 1e6,
             segments

@@ -29,7 +29,11 @@ pub struct BenchRenderArgs {
 }
 
 pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(args.repeat >= 1, "--repeat must be at least 1");
+    anyhow::ensure!(
+        (1..=1000).contains(&args.repeat),
+        "--repeat {}: must be between 1 and 1000",
+        args.repeat
+    );
     let integrator: IntegratorKind = args.integrator.parse().map_err(|e: String| anyhow::anyhow!("{e}"))?;
     let world = World::build(scene::load(&args.scene, &LoadOptions::default())?);
     let settings = RenderSettings {
@@ -42,6 +46,10 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         background: None,
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
+    crate::io::memory::check_fits(
+        &format!("a {}x{} render", args.width, args.height),
+        u64::from(args.width) * u64::from(args.height) * super::render::BYTES_PER_PIXEL,
+    )?;
     let cam: Camera =
         scene_camera(&world, args.width as f32 / args.height as f32).map_err(|e| anyhow::anyhow!("{e}"))?;
     let rs = RenderScene::new(&world);

@@ -41,6 +41,12 @@ pub struct TraceArgs {
     pub write_inputs: Option<PathBuf>,
 }
 
+/// Peak memory per generated terrain triangle, bytes: mesh, BVH and build scratch (1M
+/// triangles and 3 x 1M rays peaked at 290 MB).
+pub const BYTES_PER_TRIANGLE: u64 = 200;
+/// Memory per generated ray, bytes: the ray and its hit record.
+pub const BYTES_PER_RAY: u64 = 64;
+
 /// Reads a ray file: little-endian f32, 6 per ray. Directions are normalised.
 pub fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
     let bytes = std::fs::read(path).map_err(|e| crate::scene::SceneError::io(path, &e))?;
@@ -262,6 +268,18 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
         "--ray-count {}: must be between 1 and 10^8",
         args.ray_count
     );
+    anyhow::ensure!(
+        (1..=1000).contains(&args.repeat),
+        "--repeat {}: must be between 1 and 1000",
+        args.repeat
+    );
+    if args.mesh.is_none() {
+        let bytes = args.triangles as u64 * BYTES_PER_TRIANGLE + 3 * args.ray_count as u64 * BYTES_PER_RAY;
+        crate::io::memory::check_fits(
+            &format!("bench trace with {} triangles and 3 x {} rays", args.triangles, args.ray_count),
+            bytes,
+        )?;
+    }
     let (mesh, label) = match &args.mesh {
         Some(p) => {
             let obj = load_obj(p)?;

@@ -15,6 +15,9 @@ use crate::scene::{self, LoadOptions, World};
 pub const DEFAULT_RENDER_SCENE: &str = "builtin:cornell_box_classic";
 /// Image size when neither the scene nor the command line gives one.
 pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
+/// Memory a render holds per pixel, bytes: film and tile results (12 bytes of float RGB each)
+/// and the 8-bit image written from them (16384 x 16384 peaked at 6.4 GB).
+pub const BYTES_PER_PIXEL: u64 = 28;
 /// Vertical field of view of the automatic camera, degrees.
 pub const AUTO_FOV_DEG: f32 = 40.0;
 
@@ -122,6 +125,11 @@ pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     }
     let world = World::build(scene);
     let s = settings(args, &world).with_context(|| args.scene.display().to_string())?;
+    let pixels = u64::from(s.width) * u64::from(s.height);
+    crate::io::memory::check_fits(
+        &format!("a {}x{} render", s.width, s.height),
+        pixels * BYTES_PER_PIXEL + world.accel.mesh.memory_bytes() as u64,
+    )?;
     let cam = camera(args, &world, s.width as f32 / s.height as f32)
         .with_context(|| args.scene.display().to_string())?;
     let rs = RenderScene::new(&world);

@@ -260,8 +260,18 @@ pub fn write_outputs<'a>(
     Ok(s)
 }
 
+/// Narrowest coverage picture, pixels: the margins, colour bar and a map 100 pixels wide.
+pub const MIN_PNG_WIDTH: u32 = 300;
+/// Widest coverage picture, pixels.
+pub const MAX_PNG_WIDTH: u32 = 8192;
+
 /// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and coverage.json.
 pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        (MIN_PNG_WIDTH..=MAX_PNG_WIDTH).contains(&args.png_width),
+        "--png-width {}: must be between {MIN_PNG_WIDTH} and {MAX_PNG_WIDTH} pixels",
+        args.png_width
+    );
     let world = load_world(&args.scene, &args.materials)?;
     let scene_name = args.scene.display().to_string();
     let config =
@@ -365,7 +375,11 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 /// Runs the coverage map `repeat` times and prints the median wall time and rays/s.
 pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
-    anyhow::ensure!(args.repeat >= 1, "--repeat {}: must be at least 1", args.repeat);
+    anyhow::ensure!(
+        (1..=1000).contains(&args.repeat),
+        "--repeat {}: must be between 1 and 1000",
+        args.repeat
+    );
     let world = load_world(&args.scene, &[])?;
     let name = args.scene.display().to_string();
     let overrides = Overrides {

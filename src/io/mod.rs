@@ -2,6 +2,7 @@
 //! physics here.
 
 pub mod atomic;
+pub mod memory;
 pub mod plot;
 pub mod stdout;
 pub mod wav;

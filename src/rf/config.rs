@@ -12,10 +12,14 @@ use crate::scene::World;
 pub const DEFAULT_FREQ_GHZ: f64 = 3.5;
 /// Transmit power when none is given, dBm.
 pub const DEFAULT_POWER_DBM: f64 = 30.0;
+/// Largest transmit power, and the smallest's magnitude, dBm (100 dBm is 10 MW).
+pub const MAX_POWER_DBM: f64 = 100.0;
 /// Grid height when none is given, metres.
 pub const DEFAULT_GRID_HEIGHT_M: f64 = 1.5;
 /// Cell size when none is given, metres.
 pub const DEFAULT_CELL_M: f64 = 1.0;
+/// Farthest the coverage plane may lie above the highest or below the lowest surface, m.
+pub const GRID_HEIGHT_MARGIN_M: f64 = 1000.0;
 /// Rays per transmitter when none are given.
 pub const DEFAULT_RAYS: u64 = 1_000_000;
 /// Interactions per ray when none are given.
@@ -269,8 +273,10 @@ impl RfConfig {
         } else {
             for t in &rf.transmitters {
                 let who = format!("transmitter \"{}\"", t.name);
-                let freq_ghz =
-                    positive(o.freq_ghz.or(t.freq_ghz).or(scene_freq).unwrap_or(DEFAULT_FREQ_GHZ), &who)?;
+                let freq_ghz = positive(
+                    o.freq_ghz.or(t.freq_ghz).or(scene_freq).unwrap_or(DEFAULT_FREQ_GHZ),
+                    &format!("{who}: frequency (--freq-ghz)"),
+                )?;
                 let kind = o.antenna.as_deref().or(t.antenna.as_deref());
                 let pol = o.polarization.as_deref().or(t.polarization.as_deref());
                 transmitters.push(Transmitter {
@@ -291,6 +297,13 @@ impl RfConfig {
             if !t.position.is_finite() || !t.power_dbm.is_finite() {
                 return Err(format!("transmitter \"{}\": position and power must be finite", t.name));
             }
+            if !(-MAX_POWER_DBM..=MAX_POWER_DBM).contains(&t.power_dbm) {
+                return Err(format!(
+                    "transmitter \"{}\": power {} dBm (--tx-power-dbm): must be between -{MAX_POWER_DBM} and {MAX_POWER_DBM} dBm",
+                    t.name, t.power_dbm
+                ));
+            }
+            world.check_clearance(&format!("transmitter \"{}\"", t.name), t.position.as_vec3())?;
         }
         let g = rf.grid.clone().unwrap_or_default();
         let height = o.grid_height_m.or(g.height_m.map(f64::from)).unwrap_or(DEFAULT_GRID_HEIGHT_M);
@@ -312,6 +325,15 @@ impl RfConfig {
             .grid_max
             .or(g.max.map(|m| [f64::from(m[0]), f64::from(m[1])]))
             .unwrap_or([from_bounds(0, true), from_bounds(1, true)]);
+        if let Some((lo, hi)) = bounds
+            && !(height >= f64::from(lo.z) - GRID_HEIGHT_MARGIN_M
+                && height <= f64::from(hi.z) + GRID_HEIGHT_MARGIN_M)
+        {
+            return Err(format!(
+                "grid height {height} m (--grid-height): must be within {GRID_HEIGHT_MARGIN_M} m of the scene's heights ({} to {} m)",
+                lo.z, hi.z
+            ));
+        }
         let grid = GridSpec::covering(min, max, cell, height)?;
         let rays = o.rays.or(rf.rays).unwrap_or(DEFAULT_RAYS);
         // Bounded so that no cell's 32.32 fixed-point sum can overflow.

@@ -184,8 +184,15 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         check_point(path, "camera eye", c.eye)?;
         check_point(path, "camera target", c.target)?;
     }
-    for l in &desc.lights {
+    for (i, l) in desc.lights.iter().enumerate() {
         check_point(path, "light", l.position)?;
+        let w = Vec3::from(l.intensity);
+        if !(w.is_finite() && w.min_element() >= 0.0) {
+            return Err(SceneError::invalid(
+                path,
+                format!("light {} has intensity {w} W/sr: each channel must be finite and 0 or more", i + 1),
+            ));
+        }
     }
     if let Some(a) = &desc.acoustic {
         for p in a.sources.iter().chain(&a.receivers) {

@@ -59,6 +59,95 @@ fn parses_floats(rest: &str, min: usize) -> bool {
     vals.len() >= min && vals.iter().all(|v| v.parse::<f32>().is_ok())
 }
 
+/// Checks an MTL text (comments stripped) line by line before tobj sees it: tobj panics on a
+/// colour with fewer than three numbers, and accepts any number. Errors read "line N: ...".
+pub fn check_mtl(text: &str) -> Result<(), String> {
+    for (i, line) in text.lines().enumerate() {
+        let mut words = line.split_whitespace();
+        let Some(key) = words.next() else { continue };
+        let values: Vec<&str> = words.collect();
+        let numbers = || -> Result<Vec<f32>, String> {
+            values
+                .iter()
+                .map(|w| {
+                    w.parse::<f32>()
+                        .ok()
+                        .filter(|v| v.is_finite())
+                        .ok_or_else(|| format!("line {}: {key} value {w:?} is not a finite number", i + 1))
+                })
+                .collect()
+        };
+        let bad = |what: &str| Err(format!("line {}: {key} {}: {what}", i + 1, values.join(" ")));
+        match key {
+            "newmtl" if values.is_empty() => return Err(format!("line {}: newmtl needs a name", i + 1)),
+            "Ka" | "Kd" | "Ks" | "Ke" | "Tf" => {
+                let v = numbers()?;
+                if v.len() != 3 {
+                    return bad("expected three numbers (r g b)");
+                }
+                if key == "Ke" && v.iter().any(|x| *x < 0.0) {
+                    return bad("emission must not be negative");
+                }
+                if key != "Ke" && v.iter().any(|x| !(0.0..=1.0).contains(x)) {
+                    return bad("each component must be in [0, 1]");
+                }
+            }
+            "Ns" | "Ni" | "d" | "Tr" => {
+                let v = numbers()?;
+                if v.len() != 1 {
+                    return bad("expected one number");
+                }
+                if matches!(key, "d" | "Tr") && !(0.0..=1.0).contains(&v[0]) {
+                    return bad("must be in [0, 1]");
+                }
+                if v[0] < 0.0 {
+                    return bad("must be 0 or above");
+                }
+            }
+            "illum" if !matches!(values[..], [v] if v.parse::<u8>().is_ok_and(|n| n <= 10)) => {
+                return bad("expected an illumination model from 0 to 10");
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Runs tobj's parser on `run`, turning a panic inside it into an error: a backstop for
+/// inputs the checks before it did not foresee. The default panic message is not printed.
+fn without_panics<T>(run: impl FnOnce() -> T) -> Result<T, String> {
+    install_quiet_hook();
+    QUIET.with(|q| q.set(true));
+    let result = std::panic::catch_unwind(std::panic::AssertUnwindSafe(run));
+    QUIET.with(|q| q.set(false));
+    result.map_err(|p| {
+        let what = p
+            .downcast_ref::<&str>()
+            .map(|s| s.to_string())
+            .or_else(|| p.downcast_ref::<String>().cloned())
+            .unwrap_or_default();
+        format!("the OBJ/MTL parser failed on this file ({})", what.replace('\n', " "))
+    })
+}
+
+thread_local! {
+    /// Set while [`without_panics`] runs on this thread: its panics are not printed.
+    static QUIET: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// Wraps the panic hook once so that panics on a [`QUIET`] thread print nothing.
+fn install_quiet_hook() {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET.with(|q| q.get()) {
+                previous(info);
+            }
+        }));
+    });
+}
+
 /// Why tobj rejected the file, with the offending line where it can be found.
 fn describe_tobj_error(err: tobj::LoadError, text: &str, vertex_count: usize) -> String {
     use tobj::LoadError as E;
@@ -123,35 +212,49 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
     let augmented = format!("mtllib {NAMES_LIBRARY}\n{text}");
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
     let missing_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
+    let bad_mtl: RefCell<Option<(PathBuf, String)>> = RefCell::new(None);
     let options =
         tobj::LoadOptions { triangulate: true, single_index: false, ignore_points: true, ignore_lines: true };
-    let loaded = tobj::load_obj_buf(&mut BufReader::new(augmented.as_bytes()), &options, |lib| {
-        if lib.as_os_str() == NAMES_LIBRARY {
-            let mut map = std::collections::HashMap::new();
-            let mats = usemtl_names
-                .iter()
-                .enumerate()
-                .map(|(i, n)| {
-                    map.insert(n.clone(), i);
-                    tobj::Material { name: n.clone(), ..Default::default() }
-                })
-                .collect();
-            return Ok((mats, map));
-        }
-        let full = dir.join(lib);
-        match std::fs::read_to_string(&full) {
-            Ok(mtl) => tobj::load_mtl_buf(&mut BufReader::new(strip_comments(&mtl).as_bytes())),
-            Err(e) => {
-                missing_mtl.borrow_mut().get_or_insert((full, e.to_string()));
-                Err(tobj::LoadError::OpenFileFailed)
+    let loaded = without_panics(|| {
+        tobj::load_obj_buf(&mut BufReader::new(augmented.as_bytes()), &options, |lib| {
+            if lib.as_os_str() == NAMES_LIBRARY {
+                let mut map = std::collections::HashMap::new();
+                let mats = usemtl_names
+                    .iter()
+                    .enumerate()
+                    .map(|(i, n)| {
+                        map.insert(n.clone(), i);
+                        tobj::Material { name: n.clone(), ..Default::default() }
+                    })
+                    .collect();
+                return Ok((mats, map));
             }
-        }
-    });
+            let full = dir.join(lib);
+            match std::fs::read_to_string(&full) {
+                Ok(mtl) => {
+                    let mtl = strip_comments(&mtl);
+                    if let Err(e) = check_mtl(&mtl) {
+                        bad_mtl.borrow_mut().get_or_insert((full, e));
+                        return Err(tobj::LoadError::MaterialParseError);
+                    }
+                    tobj::load_mtl_buf(&mut BufReader::new(mtl.as_bytes()))
+                }
+                Err(e) => {
+                    missing_mtl.borrow_mut().get_or_insert((full, e.to_string()));
+                    Err(tobj::LoadError::OpenFileFailed)
+                }
+            }
+        })
+    })
+    .map_err(|e| SceneError::invalid(path, e))?;
     if let Some((mtl, reason)) = missing_mtl.into_inner() {
         return Err(SceneError::invalid(
             path,
             format!("material library {} cannot be opened ({reason})", mtl.display()),
         ));
+    }
+    if let Some((mtl, reason)) = bad_mtl.into_inner() {
+        return Err(SceneError::invalid(mtl, reason));
     }
     let (models, materials) =
         loaded.map_err(|e| SceneError::invalid(path, describe_tobj_error(e, &text, vertex_count)))?;
@@ -236,4 +339,42 @@ fn nth_vertex_line(text: &str, index: usize) -> String {
 
 fn parses_finite(rest: &str) -> bool {
     rest.split_whitespace().all(|v| v.parse::<f32>().is_ok_and(f32::is_finite))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mtl_lines_are_checked_with_their_line_numbers() {
+        assert_eq!(
+            check_mtl("newmtl m\nKd 0.5 0.5 0.5\nKe 4 4 4\nNs 10\nd 1\nillum 2\nmap_Kd x.png\n"),
+            Ok(())
+        );
+        for (text, needle) in [
+            ("newmtl m\nKd 0.5\n", "line 2: Kd 0.5: expected three numbers"),
+            ("newmtl m\n\nKs 0.1 0.2\n", "line 3: Ks 0.1 0.2: expected three numbers"),
+            ("Kd nan -5 1e40\n", "line 1: Kd value \"nan\" is not a finite number"),
+            ("Kd 1e40 0 0\n", "not a finite number"),
+            ("Kd 0.5 1.5 0.5\n", "[0, 1]"),
+            ("Ke -1 0 0\n", "negative"),
+            ("Ns\n", "expected one number"),
+            ("Ni -1\n", "0 or above"),
+            ("d 1.5\n", "[0, 1]"),
+            ("illum 99\n", "illumination model"),
+            ("newmtl\n", "needs a name"),
+        ] {
+            let e = check_mtl(text).unwrap_err();
+            assert!(e.contains(needle), "{text:?}: {e}");
+        }
+    }
+
+    #[test]
+    fn a_panic_in_the_parser_becomes_an_error() {
+        let r: Result<(), String> = without_panics(|| panic!("index out of bounds"));
+        assert!(r.unwrap_err().contains("index out of bounds"));
+        assert_eq!(without_panics(|| 7), Ok(7));
+        // The thread is no longer quiet afterwards.
+        assert!(!QUIET.with(|q| q.get()));
+    }
 }

@@ -7,6 +7,44 @@ use super::error::SceneError;
 use super::load::Scene;
 use crate::core::{Accel, BuildQuality, accel::point_enclosed};
 
+/// Closest a sound source or receiver, or a radio transmitter, may be to a surface, metres:
+/// nearer, it sits on the surface and half its rays start behind it.
+pub const MIN_SURFACE_CLEARANCE_M: f32 = 0.01;
+
+/// Distance from `p` to the triangle `abc` (Ericson, Real-Time Collision Detection, 5.1.5).
+fn triangle_distance(p: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
+    let (ab, ac, ap) = (b - a, c - a, p - a);
+    let (d1, d2) = (ab.dot(ap), ac.dot(ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return ap.length();
+    }
+    let bp = p - b;
+    let (d3, d4) = (ab.dot(bp), ac.dot(bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return bp.length();
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        return (p - (a + ab * (d1 / (d1 - d3)))).length();
+    }
+    let cp = p - c;
+    let (d5, d6) = (ab.dot(cp), ac.dot(cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return cp.length();
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        return (p - (a + ac * (d2 / (d2 - d6)))).length();
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && d4 - d3 >= 0.0 && d5 - d6 >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return (p - (b + (c - b) * w)).length();
+    }
+    let denom = 1.0 / (va + vb + vc);
+    (p - (a + ab * (vb * denom) + ac * (vc * denom))).length()
+}
+
 /// A scene ready for tracing.
 pub struct World {
     pub scene: Scene,
@@ -31,6 +69,28 @@ impl World {
             let c = &r.components[r.component_of_triangle[t as usize] as usize];
             c.closed && !c.planar
         }))
+    }
+
+    /// Distance from `p` to the nearest surface (triangle or sphere), metres; infinite for an
+    /// empty scene. Linear in the triangle count: meant for a handful of points.
+    pub fn surface_distance_m(&self, p: Vec3) -> f32 {
+        let mesh = &self.scene.mesh;
+        let triangles = (0..mesh.triangle_count()).map(|t| triangle_distance(p, mesh.corners(t)));
+        let spheres = self.scene.spheres.iter().map(|s| ((p - s.center).length() - s.radius_m).abs());
+        triangles.chain(spheres).fold(f32::INFINITY, f32::min)
+    }
+
+    /// Errors when `p` (a `what`, e.g. `source "S1"`) is closer than
+    /// [`MIN_SURFACE_CLEARANCE_M`] to a surface.
+    pub fn check_clearance(&self, what: &str, p: Vec3) -> Result<(), String> {
+        let d = self.surface_distance_m(p);
+        if d < MIN_SURFACE_CLEARANCE_M {
+            return Err(format!(
+                "{what} at ({}, {}, {}) is {d:.4} m from a surface: it must be at least {MIN_SURFACE_CLEARANCE_M} m away",
+                p.x, p.y, p.z
+            ));
+        }
+        Ok(())
     }
 
     /// Errors when an acoustic source or receiver of the scene lies outside a closed room.
