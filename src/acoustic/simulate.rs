@@ -303,7 +303,7 @@ pub fn simulate_on(
     let ism_order =
         if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
     // Which triangles each receiver sees whole: their rain needs no occlusion ray.
-    let rain_in_view: Vec<Option<Vec<bool>>> = if settings.diffuse_rain {
+    let rain_in_view: Vec<Option<Vec<crate::core::visibility::PartsInView>>> = if settings.diffuse_rain {
         spheres.iter().map(|r| triangles_in_full_view(&scene.mesh, &scene.spheres, r.center)).collect()
     } else {
         Vec::new()

@@ -13,6 +13,7 @@ use crate::core::ray::Ray;
 use crate::core::rng::{Rng64, uniform};
 use crate::core::sampling::{cosine_hemisphere, to_world};
 use crate::core::sphere::Sphere;
+use crate::core::visibility::{PartsInView, part_of};
 use crate::scene::materials::{BAND_COUNT, BandValues};
 
 /// Acoustic surface data per surface id.
@@ -97,7 +98,7 @@ pub struct SoundPropagation<'a> {
     pub diffuse_rain: Option<&'a Accel>,
     /// Per receiver, the triangles wholly in its view ([`crate::core::visibility::triangles_in_full_view`]): rain
     /// from them needs no occlusion ray. Empty (or `None` for a receiver): trace them all.
-    pub rain_in_view: &'a [Option<Vec<bool>>],
+    pub rain_in_view: &'a [Option<Vec<PartsInView>>],
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -308,8 +309,13 @@ impl SoundPropagation<'_> {
             let fluence_per_j =
                 cos_theta * 2.0 * one_minus_cos_gamma / (std::f32::consts::PI * s.radius_m * s.radius_m);
             let in_view = hit.kind == PrimitiveKind::Triangle
-                && self.rain_in_view.get(i).and_then(Option::as_ref).and_then(|t| t.get(hit.primitive as usize))
-                    == Some(&true);
+                && self
+                    .rain_in_view
+                    .get(i)
+                    .and_then(Option::as_ref)
+                    .and_then(|t| t.get(hit.primitive as usize))
+                    .zip(part_of(hit.barycentric.x, hit.barycentric.y))
+                    .is_some_and(|(mask, part)| mask >> part & 1 == 1);
             if !in_view {
                 let mut shadow = Ray::spawn_to(hit.point, hit.normal, s.center);
                 shadow.t_max = (shadow.t_max - s.radius_m).max(0.0);
