@@ -14,9 +14,9 @@ fn main() -> ExitCode {
             let first = text.lines().find(|l| !l.trim().is_empty()).unwrap_or("error: invalid arguments");
             let first = first.trim();
             if first.starts_with("error:") {
-                eprintln!("{first}");
+                propsim::errln!("{first}");
             } else {
-                eprintln!("error: {first}");
+                propsim::errln!("error: {first}");
             }
             return ExitCode::from(2);
         }
@@ -26,7 +26,7 @@ fn main() -> ExitCode {
     let cluster = match propsim::dist::Cluster::from_environment() {
         Ok(c) => c,
         Err(e) => {
-            eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+            propsim::errln!("error: {}", format!("{e:#}").replace('\n', " "));
             return ExitCode::FAILURE;
         }
     };
@@ -43,7 +43,7 @@ fn main() -> ExitCode {
         Ok(()) => {
             if cluster.is_root() && cluster.size() > 1 {
                 let c = cluster.reduce_cost();
-                eprintln!(
+                propsim::errln!(
                     "mpi: {} processes; rank 0 waited {:.3} s for the others and reduced {:.2} MB in {:.3} s",
                     cluster.size(),
                     c.wait_s,
@@ -56,7 +56,7 @@ fn main() -> ExitCode {
         Err(e) => {
             // Every process of a job sees the same inputs and fails alike: rank 0 reports.
             if cluster.is_root() {
-                eprintln!("error: {}", format!("{e:#}").replace('\n', " "));
+                propsim::errln!("error: {}", format!("{e:#}").replace('\n', " "));
             }
             ExitCode::FAILURE
         }

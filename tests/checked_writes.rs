@@ -189,6 +189,30 @@ fn standard_output_on_a_full_device_is_an_error() {
     );
 }
 
+/// Standard error on a full device: warnings and errors cannot be shown, but nothing panics,
+/// a good run still succeeds and a bad one still fails (not with a panic's 101).
+#[test]
+fn standard_error_on_a_full_device_changes_no_exit_status() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = |args: &[&str]| {
+        let full = std::fs::OpenOptions::new().write(true).open("/dev/full").unwrap();
+        Command::new(env!("CARGO_BIN_EXE_propsim")).args(args).stderr(full).output().unwrap().status
+    };
+    let out = dir.path().join("a");
+    // Few rays: the run warns about few detections on standard error.
+    let ok = run(&["acoustic", "builtin:shoebox", "--rays", "300", "--out", out.to_str().unwrap()]);
+    assert!(ok.success(), "{ok:?}");
+    for bad in
+        [&["info", "/no/such/room.obj"][..], &["acoustic", "builtin:shoebox", "--rays", "0"], &["nonsense"]]
+    {
+        let status = run(bad);
+        assert!(
+            !status.success() && status.code() != Some(101) && status.code().is_some(),
+            "{bad:?}: {status:?}"
+        );
+    }
+}
+
 #[test]
 fn a_closed_pipe_ends_quietly() {
     let mut child = Command::new(env!("CARGO_BIN_EXE_propsim"))

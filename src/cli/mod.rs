@@ -20,7 +20,7 @@ macro_rules! say {
 
 /// `eprintln!` on the process that speaks for the job.
 macro_rules! tell {
-    ($($t:tt)*) => { if $crate::cli::speaks() { eprintln!($($t)*) } };
+    ($($t:tt)*) => { if $crate::cli::speaks() { $crate::errln!($($t)*) } };
 }
 
 pub mod acoustic;

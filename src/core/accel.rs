@@ -168,7 +168,7 @@ impl MeshBvh {
         let mut clock = std::time::Instant::now();
         let mut stage = |name: &str| {
             if verbose {
-                eprintln!("build {name}: {:.1} ms", clock.elapsed().as_secs_f64() * 1e3);
+                crate::errln!("build {name}: {:.1} ms", clock.elapsed().as_secs_f64() * 1e3);
             }
             clock = std::time::Instant::now();
         };

@@ -48,3 +48,15 @@ macro_rules! outln {
     () => { $crate::io::stdout::print(format_args!("\n")) };
     ($($t:tt)*) => { $crate::io::stdout::print(format_args!("{}\n", format_args!($($t)*))) };
 }
+
+/// Writes `args` to standard error, ignoring a failure: `eprintln!` panics when standard error
+/// cannot be written (`2>/dev/full`), and there is nowhere else to say anything.
+pub fn print_err(args: fmt::Arguments) {
+    let _ = io::stderr().lock().write_fmt(args);
+}
+
+/// `eprintln!` that never panics.
+#[macro_export]
+macro_rules! errln {
+    ($($t:tt)*) => { $crate::io::stdout::print_err(format_args!("{}\n", format_args!($($t)*))) };
+}
