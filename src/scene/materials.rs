@@ -164,6 +164,48 @@ pub struct MaterialSpec {
     pub emission: Option<[f32; 3]>,
 }
 
+impl MaterialSpec {
+    /// This entry with the keys `later` gives replaced, field by field. Keys that only make
+    /// sense together go together: a later `absorption` or `bands_hz` brings its own
+    /// `bands_hz` (or none), a later `itu` drops the earlier permittivity and conductivity, and
+    /// a later permittivity or conductivity drops the earlier `itu`.
+    pub fn merged_with(&self, later: &MaterialSpec) -> MaterialSpec {
+        let mut m = self.clone();
+        macro_rules! take {
+            ($($field:ident),*) => { $(if later.$field.is_some() { m.$field = later.$field.clone(); })* };
+        }
+        if later.absorption.is_some() || later.bands_hz.is_some() {
+            m.bands_hz = later.bands_hz.clone();
+        }
+        if later.itu.is_some() {
+            (m.relative_permittivity, m.conductivity_s_per_m) = (None, None);
+        }
+        if later.relative_permittivity.is_some() || later.conductivity_s_per_m.is_some() {
+            m.itu = None;
+        }
+        take!(
+            description,
+            source,
+            absorption,
+            scattering,
+            itu,
+            relative_permittivity,
+            conductivity_s_per_m,
+            thickness_m,
+            scattering_coefficient,
+            xpd_coefficient,
+            scattering_pattern,
+            alpha_r,
+            color,
+            kind,
+            roughness,
+            ior,
+            emission
+        );
+        m
+    }
+}
+
 /// A materials file: `[materials.NAME]` tables.
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -360,10 +402,13 @@ impl MaterialSpec {
     }
 }
 
-/// Materials by name. Later additions override earlier ones of the same name.
+/// Materials by name. A later entry of a name already present overrides only the keys it
+/// gives ([`MaterialSpec::merged_with`]).
 #[derive(Clone, Debug, Default)]
 pub struct MaterialLibrary {
     pub materials: BTreeMap<String, Material>,
+    /// Each material as written, merged entry by entry: what a later entry is merged into.
+    specs: BTreeMap<String, MaterialSpec>,
 }
 
 /// The built-in library's source text (provenance noted per entry).
@@ -391,10 +436,15 @@ impl MaterialLibrary {
         specs: &BTreeMap<String, MaterialSpec>,
     ) -> Result<(), SceneError> {
         for (name, spec) in specs {
-            let m = spec
+            let merged = match self.specs.get(name) {
+                Some(earlier) => earlier.merged_with(spec),
+                None => spec.clone(),
+            };
+            let m = merged
                 .resolve(name)
                 .map_err(|e| SceneError::invalid(path, format!("material \"{name}\": {e}")))?;
             self.materials.insert(name.clone(), m);
+            self.specs.insert(name.clone(), merged);
         }
         Ok(())
     }
@@ -441,6 +491,38 @@ mod tests {
         assert_eq!(a.bands_given, 1..7);
         assert_eq!(m.radio, Some(RadioProps::Itu("concrete".into())));
         assert_eq!(m.optical, None);
+    }
+
+    #[test]
+    fn a_later_entry_overrides_only_the_keys_it_gives() {
+        let mut lib = MaterialLibrary::builtin();
+        let before = lib.materials["concrete_rough"].clone();
+        let path = Path::new("mine.toml");
+        // Radio only: the acoustic and optical data stay.
+        lib.add_toml(path, "[materials.concrete_rough]\nitu = \"glass\"\n").unwrap();
+        let after = &lib.materials["concrete_rough"];
+        assert_eq!(after.acoustic, before.acoustic);
+        assert_eq!(after.optical, before.optical);
+        assert_ne!(after.radio, before.radio);
+        // Explicit permittivity replaces the ITU class; absorption keeps the radio data.
+        lib.add_toml(
+            path,
+            "[materials.concrete_rough]\nrelative_permittivity = 4.0\nconductivity_s_per_m = 0.01\n",
+        )
+        .unwrap();
+        let explicit = lib.materials["concrete_rough"].radio.clone();
+        lib.add_toml(path, "[materials.concrete_rough]\nabsorption = 0.5\n").unwrap();
+        let last = &lib.materials["concrete_rough"];
+        assert_eq!(last.radio, explicit);
+        assert_eq!(last.acoustic.as_ref().map(|a| a.absorption), Some([0.5; BAND_COUNT]));
+        // The earlier scattering stays with the new absorption.
+        assert_eq!(
+            last.acoustic.as_ref().map(|a| a.scattering),
+            before.acoustic.as_ref().map(|a| a.scattering)
+        );
+        // A new name is added whole.
+        lib.add_toml(path, "[materials.brand_new]\nabsorption = 0.3\n").unwrap();
+        assert!(lib.materials["brand_new"].radio.is_none());
     }
 
     #[test]
