@@ -122,10 +122,16 @@ fn bad_inputs_are_one_line_errors() {
     );
     assert_clean_error(&["rf", CANYON, "--grid-min", "10,10", "--grid-max", "0,0"], &["max must exceed min"]);
     assert_clean_error(&["rf", "builtin:bras_cr2"], &["no transmitter", "--tx"]);
-    assert_clean_error(
-        &["rf", "builtin:cornell_box", "--tx", "1,1,1"],
-        &["cornell_white", "no radio properties"],
-    );
+    // A surface known only from the MTL has no radio data.
+    let bare = tempfile::tempdir().unwrap();
+    std::fs::write(bare.path().join("m.mtl"), "newmtl paint\nKd 0.5 0.5 0.5\n").unwrap();
+    let obj = bare.path().join("mtl_only.obj");
+    std::fs::write(
+        &obj,
+        "mtllib m.mtl\nv -50 -50 0\nv 50 -50 0\nv 50 50 0\nv -50 50 0\nusemtl paint\nf 1 2 3 4\n",
+    )
+    .unwrap();
+    assert_clean_error(&["rf", obj.to_str().unwrap(), "--tx", "0,0,10"], &["paint", "no radio properties"]);
     assert_clean_error(&["rf", "no/such/scene.toml"], &["no/such/scene.toml"]);
     for bad in ["0", "-0.1", "nan", "inf"] {
         assert_clean_error(&["rf", CANYON, "--wall-thickness-m", bad], &["--wall-thickness-m", "positive"]);

@@ -145,6 +145,8 @@ pub struct MaterialSpec {
     pub bands_hz: Option<Vec<f32>>,
     /// ITU-R P.2040-3 Table 3 material name.
     pub itu: Option<String>,
+    /// Why the radio data were chosen (appended to `source`).
+    pub radio_source: Option<String>,
     pub relative_permittivity: Option<f64>,
     pub conductivity_s_per_m: Option<f64>,
     /// Wall thickness for radio transmission through thin slabs, metres (positive).
@@ -183,12 +185,19 @@ impl MaterialSpec {
         if later.relative_permittivity.is_some() || later.conductivity_s_per_m.is_some() {
             m.itu = None;
         }
+        if later.itu.is_some()
+            || later.relative_permittivity.is_some()
+            || later.conductivity_s_per_m.is_some()
+        {
+            m.radio_source = None;
+        }
         take!(
             description,
             source,
             absorption,
             scattering,
             itu,
+            radio_source,
             relative_permittivity,
             conductivity_s_per_m,
             thickness_m,
@@ -392,7 +401,10 @@ impl MaterialSpec {
         Ok(Material {
             name: name.to_string(),
             description: self.description.clone().unwrap_or_default(),
-            source: self.source.clone().unwrap_or_default(),
+            source: match (&self.source, &self.radio_source) {
+                (Some(s), Some(r)) => format!("{s}; radio: {r}"),
+                (s, r) => s.clone().or_else(|| r.clone()).unwrap_or_default(),
+            },
             acoustic,
             radio,
             thickness_m: self.thickness_m,
@@ -599,6 +611,16 @@ mod tests {
             let m = lib.get(name).unwrap_or_else(|| panic!("built-in library lacks ITU material {name}"));
             assert_eq!(m.radio, Some(RadioProps::Itu(name.to_string())));
         }
+        // Every entry serves all three views.
+        for m in lib.materials.values() {
+            assert!(
+                m.acoustic.is_some() && m.radio.is_some() && m.optical.is_some(),
+                "{} lacks acoustic, radio or optical data",
+                m.name
+            );
+        }
+        // A radio class chosen as a stand-in says why.
+        assert!(lib.materials["curtain_light"].source.contains("radio: ITU-R P.2040-3 Table 3 class"));
     }
 
     #[test]
