@@ -4,32 +4,16 @@
 //! nothing written, and an end within a second, in an address space of 2 GB (so that an
 //! absurd size cannot allocate gigabytes on the way).
 
+mod common;
+
 use std::os::unix::process::CommandExt;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-const SHOEBOX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/rooms/shoebox/scene.toml");
+use common::BOX_OBJ;
 
-/// A 4 x 3 x 2.5 m room of built-in materials, normals out of the room.
-const BOX_OBJ: &str = "\
-v 0 0 0
-v 4 0 0
-v 4 3 0
-v 0 3 0
-v 0 0 2.5
-v 4 0 2.5
-v 4 3 2.5
-v 0 3 2.5
-usemtl concrete
-f 1 4 3 2
-f 5 6 7 8
-usemtl plasterboard
-f 1 2 6 5
-f 2 3 7 6
-f 3 4 8 7
-f 4 1 5 8
-";
+const SHOEBOX: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/rooms/shoebox/scene.toml");
 
 /// The box with an MTL library `box.mtl` (whose text each case gives) for surface `paint`.
 const PAINTED_OBJ: &str = "mtllib box.mtl\nv 0 0 0\nv 4 0 0\nv 0 3 0\nusemtl paint\nf 1 2 3\n";

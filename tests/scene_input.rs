@@ -5,30 +5,10 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::propsim;
+use common::{BOX_OBJ, propsim};
 
 use glam::Vec3;
 use propsim::scene::{self, LoadOptions, World};
-
-const BOX_OBJ: &str = "\
-o room
-v 0 0 0
-v 4 0 0
-v 4 3 0
-v 0 3 0
-v 0 0 2.5
-v 4 0 2.5
-v 4 3 2.5
-v 0 3 2.5
-usemtl concrete
-f 1 4 3 2
-f 5 6 7 8
-usemtl plasterboard
-f 1 2 6 5
-f 2 3 7 6
-f 3 4 8 7
-f 4 1 5 8
-";
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
     let p = dir.join(name);

@@ -43,3 +43,25 @@ pub fn assert_clean_error(args: &[&str], needles: &[&str]) -> String {
     let (ok, _, err) = propsim(args);
     check_one_line_error(args, ok, &err, needles)
 }
+
+/// A closed 4 x 3 x 2.5 m room of built-in materials (concrete floor and ceiling,
+/// plasterboard walls), normals out of the room.
+pub const BOX_OBJ: &str = "\
+o room
+v 0 0 0
+v 4 0 0
+v 4 3 0
+v 0 3 0
+v 0 0 2.5
+v 4 0 2.5
+v 4 3 2.5
+v 0 3 2.5
+usemtl concrete
+f 1 4 3 2
+f 5 6 7 8
+usemtl plasterboard
+f 1 2 6 5
+f 2 3 7 6
+f 3 4 8 7
+f 4 1 5 8
+";
