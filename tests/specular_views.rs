@@ -35,6 +35,7 @@ fn acoustic_and_radio_views_find_the_same_paths() {
         slab_thickness_m: None,
         wavelength_m: C0 / 3.5e9,
         scattering: Vec::new(),
+        table: None,
     };
     let antenna = Antenna::Isotropic { polarization: Polarization::Vertical };
     let no_spheres = Accel::build(&world.scene.mesh, Vec::new(), BuildQuality::default());
@@ -94,6 +95,7 @@ fn the_acoustic_simulation_counts_the_radio_paths() {
         slab_thickness_m: None,
         wavelength_m: C0 / 3.5e9,
         scattering: Vec::new(),
+        table: None,
     };
     let antenna = Antenna::Isotropic { polarization: Polarization::Horizontal };
     for (pair, r) in result.pairs.iter().zip(RECEIVERS) {

@@ -77,8 +77,11 @@ pub fn fibonacci_sphere(i: usize, n: usize, offset: f32) -> Vec3 {
     let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;
     let r = (1.0 - z * z).max(0.0).sqrt();
     let turns = (i as f64 * GOLDEN_ANGLE_TURNS + f64::from(offset)).fract();
-    let phi = std::f64::consts::TAU * turns;
-    Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32)
+    // The angle in f64 (the turns of a large index need it), its sine and cosine in f32:
+    // the direction is f32 anyway, and `sincosf` is about twice as fast as `sincos`.
+    let (sin, cos) = ((std::f64::consts::TAU * turns) as f32).sin_cos();
+    let r = r as f32;
+    Vec3::new(r * cos, r * sin, z as f32)
 }
 
 /// Sample `i` of an `nx` x `ny` stratified pattern, jittered by `u` within its cell.

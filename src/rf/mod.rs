@@ -14,6 +14,7 @@
 //! ```
 
 pub mod antenna;
+pub mod coefficient_table;
 pub mod config;
 pub mod coverage;
 pub mod fresnel;
@@ -353,7 +354,9 @@ pub fn simulate_on(
                 .then(|| surface_thicknesses(world, config.wall_thickness_m)),
             wavelength_m,
             scattering: surface_scattering(world, config.scattering_coefficient),
-        };
+            table: None,
+        }
+        .tabulated();
         let t0 = std::time::Instant::now();
         let mut tx_cov = None;
         if config.rays > 0 {

@@ -14,9 +14,12 @@
 //! `sqrt(1 - S^2)` of its amplitude and `S^2` of the reflected power leaves in a direction
 //! drawn from the scattering pattern (docs/radio.md, sec. 4).
 
+use std::sync::Arc;
+
 use glam::{DVec3, Vec3};
 
 use super::antenna::Antenna;
+use super::coefficient_table::CoefficientTable;
 use super::coverage::CoverageAccumulator;
 use super::fresnel::{Complex, reflection, slab};
 use crate::core::hit::Hit;
@@ -92,6 +95,38 @@ impl LocalBasis {
         Self { s, p_in: s.cross(k), p_out: s.cross(reflected), cos_theta: kn.abs().min(1.0), reflected }
     }
 
+    /// The field's TE and TM components `(E_s, E_p)` (along `s` and `p_in`).
+    #[inline]
+    pub fn components(&self, e: &FieldVec) -> (Complex, Complex) {
+        (e.along(self.s), e.along(self.p_in))
+    }
+
+    /// [`Self::reflect`] of the field with components `(E_s, E_p)`, times the real `scale`.
+    #[inline]
+    pub fn reflect_components(
+        &self,
+        (es, ep): (Complex, Complex),
+        r_te: Complex,
+        r_tm: Complex,
+        scale: f64,
+    ) -> FieldVec {
+        FieldVec::from_component((r_te * es).scale(scale), self.s)
+            .add(&FieldVec::from_component((r_tm * ep).scale(scale), self.p_out))
+    }
+
+    /// [`Self::transmit`] of the field with components `(E_s, E_p)`, times the real `scale`.
+    #[inline]
+    pub fn transmit_components(
+        &self,
+        (es, ep): (Complex, Complex),
+        t_te: Complex,
+        t_tm: Complex,
+        scale: f64,
+    ) -> FieldVec {
+        FieldVec::from_component((t_te * es).scale(scale), self.s)
+            .add(&FieldVec::from_component((t_tm * ep).scale(scale), self.p_in))
+    }
+
     /// The reflected field `R_TE E_s s + R_TM E_p p_out`.
     pub fn reflect(&self, e: &FieldVec, r_te: Complex, r_tm: Complex) -> FieldVec {
         FieldVec::from_component(r_te * e.along(self.s), self.s)
@@ -121,12 +156,32 @@ pub struct SurfacePhysics {
     /// Diffuse reflection of each surface (indexed by `SurfaceId`); a surface beyond the end
     /// is purely specular (`S = 0`).
     pub scattering: Vec<RadioScattering>,
+    /// The coefficients tabulated over `cos theta` ([`Self::tabulated`]); `None`: computed
+    /// exactly at every interaction.
+    pub table: Option<Arc<CoefficientTable>>,
 }
 
 impl SurfacePhysics {
+    /// The same physics with its coefficients tabulated for the launcher's hot loop
+    /// (`super::coefficient_table`: within `MAX_TABLE_ERROR` of the exact values).
+    pub fn tabulated(mut self) -> Self {
+        let table = CoefficientTable::build(&self.eta, self.slab_thickness_m.as_deref(), self.wavelength_m);
+        self.table = Some(Arc::new(table));
+        self
+    }
+
     /// Reflection coefficients (TE, TM) on `surface` at `cos_theta`, and the transmission
-    /// coefficients when walls are slabs.
+    /// coefficients when walls are slabs: from the table when there is one, else exact.
+    #[inline]
     pub fn coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
+        match &self.table {
+            Some(t) => t.coefficients(surface, cos_theta),
+            None => self.exact_coefficients(surface, cos_theta),
+        }
+    }
+
+    /// [`Self::coefficients`] from the exact formulas of ITU-R P.2040-3 (`super::fresnel`).
+    pub fn exact_coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
         let eta = (*self.eta.get(surface as usize)?)?;
         Some(match &self.slab_thickness_m {
             None => {
@@ -232,26 +287,31 @@ pub fn interaction(
 ) -> Option<Interacted> {
     let basis = LocalBasis::new(k, n);
     let (r_te, r_tm, t) = physics.coefficients(surface, basis.cos_theta)?;
-    let reflected = basis.reflect(e, r_te, r_tm);
     let scattering = physics.scattering(surface);
     let s = scattering.scattering_coefficient;
     let specular =
         |field: FieldVec| Interacted { branch: Branch::Reflected, field, direction: basis.reflected };
     if s == 0.0 {
-        // Purely specular: the walk of docs/radio.md, sec. 2, draw for draw.
+        // Purely specular: the walk of docs/radio.md, sec. 2, draw for draw. The branch
+        // powers follow from the TE and TM components (`s` and `p` are orthonormal), and only
+        // the chosen branch's field is built.
+        let c = basis.components(e);
+        let (ps, pp) = (c.0.norm_sqr(), c.1.norm_sqr());
+        let p_r = r_te.norm_sqr() * ps + r_tm.norm_sqr() * pp;
         let Some((t_te, t_tm)) = t else {
-            return (reflected.power() >= MIN_POWER).then(|| specular(reflected));
+            return (p_r >= MIN_POWER).then(|| specular(basis.reflect_components(c, r_te, r_tm, 1.0)));
         };
-        let transmitted = basis.transmit(e, t_te, t_tm);
-        return match choose_branch(reflected.power(), transmitted.power(), uniform())? {
+        let p_t = t_te.norm_sqr() * ps + t_tm.norm_sqr() * pp;
+        return match choose_branch(p_r, p_t, uniform())? {
             (Branch::Transmitted, scale) => Some(Interacted {
                 branch: Branch::Transmitted,
-                field: transmitted.scale(Complex::new(scale, 0.0)),
+                field: basis.transmit_components(c, t_te, t_tm, scale),
                 direction: k,
             }),
-            (_, scale) => Some(specular(reflected.scale(Complex::new(scale, 0.0)))),
+            (_, scale) => Some(specular(basis.reflect_components(c, r_te, r_tm, scale))),
         };
     }
+    let reflected = basis.reflect(e, r_te, r_tm);
     // The reflected power splits into (1 - S^2) specular and S^2 diffuse (Sionna RT).
     let p_reflected = reflected.power();
     let p_specular = (1.0 - s * s) * p_reflected;
@@ -502,6 +562,7 @@ mod tests {
             slab_thickness_m: Some(vec![0.1]),
             wavelength_m: super::super::fresnel::C0 / 3.5e9,
             scattering: vec![RadioScattering { scattering_coefficient: s, xpd_coefficient: xpd, pattern }],
+            table: None,
         }
     }
 

@@ -142,7 +142,7 @@ fn path_field(path: &SpecularPath, physics: &SurfacePhysics, antenna: &Antenna) 
     for (k, r) in path.reflections.iter().enumerate() {
         let dir = (points[k + 1] - points[k]).normalize();
         let basis = LocalBasis::new(dir, r.normal);
-        let (r_te, r_tm, _) = physics.coefficients(r.surface, basis.cos_theta)?;
+        let (r_te, r_tm, _) = physics.exact_coefficients(r.surface, basis.cos_theta)?;
         // A scattering surface keeps sqrt(1 - S^2) of the specular amplitude (sec. 4).
         let reduction = physics.specular_factor(r.surface);
         e = basis.reflect(&e, r_te.scale(reduction), r_tm.scale(reduction));
