@@ -354,6 +354,9 @@ pub struct BenchRfArgs {
     /// Timed runs; medians are reported.
     #[arg(long, default_value_t = 3)]
     pub repeat: usize,
+    /// Extra materials file(s), as for `propsim rf`.
+    #[arg(long = "materials")]
+    pub materials: Vec<PathBuf>,
 }
 
 /// CPU time (user + system) of this process so far, seconds, from /proc (Linux); `None`
@@ -380,7 +383,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         "--repeat {}: must be between 1 and 1000",
         args.repeat
     );
-    let world = load_world(&args.scene, &[])?;
+    let world = load_world(&args.scene, &args.materials)?;
     let name = args.scene.display().to_string();
     let overrides = Overrides {
         rays: Some(args.rays),
@@ -394,6 +397,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
     let mut walls = Vec::new();
     let mut cpus = Vec::new();
     let mut reached = 0;
+    let mut segments = 0;
     for _ in 0..args.repeat {
         let t0 = Instant::now();
         let c0 = process_cpu_seconds();
@@ -403,6 +407,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
             cpus.push(b - a);
         }
         reached = r.coverage.paths.iter().filter(|&&p| p > 0).count();
+        segments = r.transmitters.iter().map(|t| t.segments).sum::<u64>();
     }
     let wall = median(walls.clone());
     say!(
@@ -415,11 +420,13 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     say!(
-        "wall time {:.3} s (median of {}; runs {:?}), {:.2} Mrays/s, {} cells reached",
+        "wall time {:.3} s (median of {}; runs {:?}), {:.2} Mrays/s, {:.1} M ray segments/s ({} segments), {} cells reached",
         wall,
         args.repeat,
         walls.iter().map(|w| (w * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
         config.rays as f64 / wall / 1e6,
+        segments as f64 / wall / 1e6,
+        segments,
         reached
     );
     if !cpus.is_empty() {

@@ -160,6 +160,8 @@ pub struct TransmitterResult {
     /// Reflection order the receiver search used (may be below `max_depth` in large scenes).
     pub receiver_depth: u32,
     pub trace_seconds: f64,
+    /// Ray segments traced for the map (launches, reflections, transmissions), all processes.
+    pub segments: u64,
 }
 
 /// A finished simulation.
@@ -359,6 +361,7 @@ pub fn simulate_on(
         .tabulated();
         let t0 = std::time::Instant::now();
         let mut tx_cov = None;
+        let mut segments = [0u64];
         if config.rays > 0 {
             let grid = CoverageAccumulator::new(config.grid);
             let prop = RadioPropagation { antenna: tx.antenna, physics: &physics, grid: &grid };
@@ -371,7 +374,8 @@ pub fn simulate_on(
                 max_reflections: config.max_depth,
                 max_path_m: config.max_path_m as f32,
             };
-            launcher::launch_share(&world.accel, &prop, &launch, cluster.share(), progress);
+            segments[0] = launcher::launch_share(&world.accel, &prop, &launch, cluster.share(), progress);
+            cluster.sum_u64(&mut segments);
             let mut totals = grid.totals();
             cluster.sum_u64(&mut totals.sum);
             cluster.sum_u32(&mut totals.paths);
@@ -436,6 +440,7 @@ pub fn simulate_on(
             receivers,
             receiver_depth,
             trace_seconds,
+            segments: segments[0],
         });
     }
     if !cluster.is_root() {

@@ -157,6 +157,10 @@ pub struct Summary<'a> {
     pub threads: usize,
     pub seconds: f64,
     pub rays_per_second: f64,
+    /// Ray segments traced for the maps (launches, reflections, transmissions), and per
+    /// second of tracing.
+    pub segments: u64,
+    pub segments_per_second: f64,
     /// The combined map (all transmitters).
     pub map: MapStats,
     /// Each transmitter's own map.
@@ -242,6 +246,12 @@ pub fn summary<'a>(
         seconds: result.seconds,
         rays_per_second: if trace > 0.0 {
             (config.rays * config.transmitters.len() as u64) as f64 / trace
+        } else {
+            0.0
+        },
+        segments: result.transmitters.iter().map(|t| t.segments).sum(),
+        segments_per_second: if trace > 0.0 {
+            result.transmitters.iter().map(|t| t.segments).sum::<u64>() as f64 / trace
         } else {
             0.0
         },

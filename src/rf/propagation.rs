@@ -222,18 +222,24 @@ const MIN_POWER: f64 = 1.0e-12;
 
 impl Propagation for RadioPropagation<'_> {
     type Payload = FieldVec;
-    type Accum = ();
+    /// Segments traced.
+    type Accum = u64;
 
-    fn new_accum(&self) {}
+    fn new_accum(&self) -> u64 {
+        0
+    }
 
-    fn merge(&self, _: &mut (), _: ()) {}
+    fn merge(&self, into: &mut u64, other: u64) {
+        *into += other;
+    }
 
     fn emit(&self, _ray_index: u64, dir: Vec3) -> FieldVec {
         let d = dir.as_dvec3();
         FieldVec::real(self.antenna.polarization(d) * self.antenna.gain(d).sqrt())
     }
 
-    fn segment(&self, _: &mut (), payload: &FieldVec, ray: &Ray, length_m: f32, _: f32, _: u32) {
+    fn segment(&self, segments: &mut u64, payload: &FieldVec, ray: &Ray, length_m: f32, _: f32, _: u32) {
+        *segments += 1;
         self.grid.record(
             ray.origin.as_dvec3().to_array(),
             ray.dir.as_dvec3().to_array(),
@@ -244,7 +250,7 @@ impl Propagation for RadioPropagation<'_> {
 
     fn interact(
         &self,
-        _: &mut (),
+        _: &mut u64,
         payload: &mut FieldVec,
         hit: &Hit,
         incoming: Vec3,
