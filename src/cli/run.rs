@@ -40,6 +40,11 @@ impl Part {
     }
 }
 
+/// One name of `--only`, with the accepted names in the error.
+fn parse_part(s: &str) -> Result<Part, String> {
+    Part::from_str(s, true).map_err(|_| format!("\"{s}\": expected render, acoustic or rf"))
+}
+
 /// Image width of `--quick` at most, pixels (the scene's aspect ratio kept).
 pub const QUICK_WIDTH: u32 = 160;
 /// Samples per pixel of `--quick`.
@@ -65,7 +70,7 @@ pub struct RunArgs {
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
     /// The parts to run, a comma list of render, acoustic and rf (default: all three).
-    #[arg(long, value_enum, value_delimiter = ',', num_args = 1)]
+    #[arg(long, value_parser = parse_part, value_delimiter = ',', num_args = 1)]
     pub only: Vec<Part>,
     /// Radio transmitter at X,Y,Z instead of the scene's (the rf part needs one).
     #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
@@ -298,8 +303,6 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let desc = world.scene.desc.clone();
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.out, true)?;
-        std::fs::create_dir_all(&args.out)
-            .with_context(|| format!("{}: cannot create", args.out.display()))?;
     }
     let selected = |p: Part| args.only.is_empty() || args.only.contains(&p);
     let mut outcomes = [Outcome::NotSelected, Outcome::NotSelected, Outcome::NotSelected];
@@ -380,6 +383,12 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     } else {
         None
     };
+
+    // Bad input has been refused by now: from here on the summary and manifest are written.
+    if cluster.is_root() {
+        std::fs::create_dir_all(&args.out)
+            .with_context(|| format!("{}: cannot create", args.out.display()))?;
+    }
 
     // The parts that can run, each failure a note.
     let mut written = [Written::default(), Written::default(), Written::default()];
