@@ -270,7 +270,7 @@ fn sub_args(
     parse(v)
 }
 
-/// The files a part wrote, with the picture the summary sheet shows for it.
+/// The files a part wrote (on rank 0), in the order it wrote them.
 #[derive(Default)]
 struct Written {
     files: Vec<PathBuf>,
