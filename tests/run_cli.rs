@@ -1,4 +1,4 @@
-//! `propsim run`: the three views of the showcase scene side by side.
+//! `propsim run`: the three views of the showcase scene side by side (small settings).
 
 mod common;
 
@@ -8,7 +8,7 @@ use common::{assert_clean_error, propsim};
 fn run_writes_all_three_views_a_summary_sheet_and_a_manifest() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out");
-    let (ok, stdout, err) = propsim(&["run", "--out", out.to_str().unwrap()]);
+    let (ok, stdout, err) = propsim(&["run", "--quick", "--out", out.to_str().unwrap()]);
     assert!(ok, "{err}");
     assert!(stdout.contains("summary sheet"), "{stdout}");
     for f in [

@@ -12,6 +12,6 @@ pub mod tracer;
 
 pub use air::Air;
 pub use simulate::{
-    AcousticResult, AcousticSettings, PairResult, ReceiverSpec, SourceSpec, scene_points, simulate,
-    simulate_on,
+    AcousticResult, AcousticSettings, NO_AIR, PairResult, ReceiverSpec, SourceSpec, check, check_points,
+    scene_points, simulate, simulate_on,
 };

@@ -186,6 +186,67 @@ pub fn surface_acoustics(world: &World) -> Result<Vec<SurfaceAcoustics>, String>
     Ok(surfaces)
 }
 
+/// The room's air volume, m^3, without the spheres inside it, and those spheres (they take
+/// up air and add their surface); an error when the mesh encloses no air or the spheres fill it.
+fn air_volume(world: &World) -> Result<(f64, Vec<&Sphere>), String> {
+    let mesh_air_m3 = world.report.air_volume_m3.ok_or(NO_AIR)?;
+    let spheres_in_air: Vec<&Sphere> =
+        world.scene.spheres.iter().filter(|s| world.is_inside(s.center) != Some(false)).collect();
+    let volume_m3 = mesh_air_m3
+        - spheres_in_air
+            .iter()
+            .map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.radius_m).powi(3))
+            .sum::<f64>();
+    if volume_m3.is_nan() || volume_m3 <= 0.0 {
+        return Err(format!("the spheres fill the room's {mesh_air_m3:.3} m^3 of air"));
+    }
+    Ok((volume_m3, spheres_in_air))
+}
+
+/// Why room acoustics cannot run on a mesh that encloses no volume (an open or outdoor scene).
+pub const NO_AIR: &str = "the scene encloses no air: room acoustics needs a closed room";
+
+/// Whether room acoustics can run in `world` at all, before any source or receiver is
+/// known: a closed room with air beside its spheres, and acoustic data on every surface.
+/// The error is a one-line reason.
+pub fn check(world: &World) -> Result<(), String> {
+    air_volume(world)?;
+    surface_acoustics(world)?;
+    Ok(())
+}
+
+/// Whether every source and receiver is usable: a finite position inside the room, clear of
+/// its surfaces and outside its spheres. The error is a one-line reason naming the point.
+pub fn check_points(world: &World, sources: &[SourceSpec], receivers: &[ReceiverSpec]) -> Result<(), String> {
+    for (kind, name, p) in sources
+        .iter()
+        .map(|s| ("source", &s.name, s.position))
+        .chain(receivers.iter().map(|r| ("receiver", &r.name, r.position)))
+    {
+        let v = Vec3::from(p);
+        if !v.is_finite() {
+            return Err(format!("{kind} \"{name}\" has a non-finite position"));
+        }
+        if world.is_inside(v) == Some(false) {
+            return Err(format!("{kind} \"{name}\" at ({}, {}, {}) is outside the room", v.x, v.y, v.z));
+        }
+        world.check_clearance(&format!("{kind} \"{name}\""), v)?;
+        if let Some(s) = world.scene.spheres.iter().find(|s| s.contains(v)) {
+            return Err(format!(
+                "{kind} \"{name}\" at ({}, {}, {}) is inside the sphere of material \"{}\" at ({}, {}, {})",
+                v.x,
+                v.y,
+                v.z,
+                world.scene.surfaces.get(s.surface as usize).map_or("?", |x| x.name.as_str()),
+                s.center.x,
+                s.center.y,
+                s.center.z
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// Runs the simulation. Errors are one-line messages about the scene or settings.
 pub fn simulate(
     world: &World,
@@ -224,19 +285,7 @@ pub fn simulate_on(
     }
     let scene = &world.scene;
     let report = &world.report;
-    let mesh_air_m3 =
-        report.air_volume_m3.ok_or("the scene encloses no air: room acoustics needs a closed room")?;
-    // Spheres are part of the room: they take up air and add their surface.
-    let spheres_in_air: Vec<&Sphere> =
-        scene.spheres.iter().filter(|s| world.is_inside(s.center) != Some(false)).collect();
-    let volume_m3 = mesh_air_m3
-        - spheres_in_air
-            .iter()
-            .map(|s| 4.0 / 3.0 * std::f64::consts::PI * f64::from(s.radius_m).powi(3))
-            .sum::<f64>();
-    if volume_m3.is_nan() || volume_m3 <= 0.0 {
-        return Err(format!("the spheres fill the room's {mesh_air_m3:.3} m^3 of air"));
-    }
+    let (volume_m3, spheres_in_air) = air_volume(world)?;
     let surfaces = surface_acoustics(world)?;
     let c = settings.air.speed_of_sound_m_s();
     let air_per_m =
@@ -257,32 +306,7 @@ pub fn simulate_on(
     let bin_limit = (limit_s / settings.bin_s).ceil() as usize;
     let time_bins = TimeBins { speed_m_s: c, bin_s: settings.bin_s, bins: bin_limit };
 
-    for (kind, name, p) in sources
-        .iter()
-        .map(|s| ("source", &s.name, s.position))
-        .chain(receivers.iter().map(|r| ("receiver", &r.name, r.position)))
-    {
-        let v = Vec3::from(p);
-        if !v.is_finite() {
-            return Err(format!("{kind} \"{name}\" has a non-finite position"));
-        }
-        if world.is_inside(v) == Some(false) {
-            return Err(format!("{kind} \"{name}\" at ({}, {}, {}) is outside the room", v.x, v.y, v.z));
-        }
-        world.check_clearance(&format!("{kind} \"{name}\""), v)?;
-        if let Some(s) = scene.spheres.iter().find(|s| s.contains(v)) {
-            return Err(format!(
-                "{kind} \"{name}\" at ({}, {}, {}) is inside the sphere of material \"{}\" at ({}, {}, {})",
-                v.x,
-                v.y,
-                v.z,
-                scene.surfaces.get(s.surface as usize).map_or("?", |x| x.name.as_str()),
-                s.center.x,
-                s.center.y,
-                s.center.z
-            ));
-        }
-    }
+    check_points(world, sources, receivers)?;
     let radius_default = default_receiver_radius_m(volume_m3, settings.rays, c, settings.bin_s);
     let mut spheres = Vec::new();
     for r in receivers {

@@ -365,22 +365,22 @@ pub fn summary_text(r: &AcousticResult) -> String {
     o
 }
 
-pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
-    let started = Instant::now();
-    let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
-    for w in &scene.warnings {
-        tell!("warning: {w}");
-    }
-    let scene_label = args.scene.display().to_string();
-    let world = World::build(scene);
-    if world.report.over_shared_edges > 0 {
-        tell!(
-            "warning: {scene_label}: {} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface",
-            world.report.over_shared_edges
-        );
-    }
+/// What the acoustic part will simulate: its sources and receivers (the flags', the scene's,
+/// or placed inside the room) and its settings, all checked.
+pub struct Plan {
+    pub sources: Vec<SourceSpec>,
+    pub receivers: Vec<ReceiverSpec>,
+    pub settings: AcousticSettings,
+    /// What was decided for the user (a source or receiver placed), one line each.
+    pub notes: Vec<String>,
+}
+
+/// The acoustic part's pre-flight: everything that can be checked before tracing (a closed
+/// room, acoustic data on every surface, usable sources and receivers, placed when none is
+/// given, and the settings). The error is one line naming the scene `scene_label`.
+pub fn plan(args: &AcousticArgs, world: &World, scene_label: &str) -> anyhow::Result<Plan> {
     let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
-    let (scene_sources, scene_receivers) = crate::acoustic::scene_points(&world);
+    let (scene_sources, scene_receivers) = crate::acoustic::scene_points(world);
     let mut sources: Vec<SourceSpec> = if args.sources.is_empty() {
         scene_sources
     } else {
@@ -406,23 +406,20 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
             })
             .collect()
     };
-    if world.report.air_volume_m3.is_none() {
-        anyhow::bail!("{scene_label}: the scene encloses no air; room acoustics needs a closed room");
-    }
-    crate::acoustic::simulate::surface_acoustics(&world)
-        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    crate::acoustic::check(world).map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    let mut notes = Vec::new();
     if sources.is_empty() {
-        let p = place_inside(&world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
+        let p = place_inside(world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a source 0.5 m from every surface")
         })?;
-        tell!("note: no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        notes.push(format!("no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z));
         sources.push(SourceSpec { name: "S1".into(), position: p.to_array(), power_w: 1.0 });
     }
     if receivers.is_empty() {
-        let p = place_inside(&world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
+        let p = place_inside(world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a receiver 0.5 m from every surface")
         })?;
-        tell!("note: no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z);
+        notes.push(format!("no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z));
         receivers.push(ReceiverSpec {
             name: "R1".into(),
             position: p.to_array(),
@@ -449,20 +446,33 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         ..Default::default()
     };
     anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);
-    // The output directory is checked before the (possibly long) simulation.
-    if cluster.is_root() {
-        crate::io::atomic::check_writable(&args.out, true)?;
-    }
+    crate::acoustic::check_points(world, &sources, &receivers)
+        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    Ok(Plan { sources, receivers, settings, notes })
+}
+
+/// Runs a checked [`Plan`] and (on rank 0) writes every output into `out`, printing the
+/// summary; returns the files written (`None` on the other ranks). `started` is when the job
+/// began, for the wall time in acoustic.json.
+pub fn execute(
+    world: &World,
+    plan: &Plan,
+    out: &Path,
+    scene_label: &str,
+    cluster: &Cluster,
+    started: Instant,
+) -> anyhow::Result<Option<Vec<PathBuf>>> {
+    let Plan { sources, receivers, settings, .. } = plan;
     let bar = super::progress::bar(settings.rays * sources.len() as u64, "rays");
-    let result = simulate_on(cluster, &world, &sources, &receivers, &settings, &|n| bar.inc(n))
+    let result = simulate_on(cluster, world, sources, receivers, settings, &|n| bar.inc(n))
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     bar.finish_and_clear();
     // Only rank 0 holds the result and writes.
-    let Some(result) = result else { return Ok(()) };
+    let Some(result) = result else { return Ok(None) };
     let traced_s = started.elapsed().as_secs_f64();
-    let written =
-        write_outputs(&args.out, &result, result.volume_m3, settings.seed, &extrapolated_bands(&world))?;
-    let summary_path = args.out.join("acoustic.json");
+    let mut written =
+        write_outputs(out, &result, result.volume_m3, settings.seed, &extrapolated_bands(world))?;
+    let summary_path = out.join("acoustic.json");
     let json = serde_json::json!({
         "propsim_version": env!("CARGO_PKG_VERSION"),
         "scene": scene_label,
@@ -480,6 +490,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
         },
     });
     crate::io::atomic::write_bytes(&summary_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    written.push(summary_path);
     say!("{}", summary_text(&result).trim_end());
     for p in &result.pairs {
         for w in &p.warnings {
@@ -488,12 +499,43 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     }
     say!(
         "wrote {} files to {} ({} rays/source, {:.2} s)",
-        written.len() + 1,
-        args.out.display(),
+        written.len(),
+        out.display(),
         settings.rays,
         started.elapsed().as_secs_f64()
     );
+    Ok(Some(written))
+}
+
+pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
+    for w in &scene.warnings {
+        tell!("warning: {w}");
+    }
+    let scene_label = args.scene.display().to_string();
+    let world = World::build(scene);
+    warn_internal_sheets(&world, &scene_label);
+    let plan = plan(args, &world, &scene_label)?;
+    for n in &plan.notes {
+        tell!("note: {n}");
+    }
+    // The output directory is checked before the (possibly long) simulation.
+    if cluster.is_root() {
+        crate::io::atomic::check_writable(&args.out, true)?;
+    }
+    execute(&world, &plan, &args.out, &scene_label, cluster, started)?;
     Ok(())
+}
+
+/// Warns when edges are shared by more than two triangles (rays cross such a sheet).
+pub fn warn_internal_sheets(world: &World, scene_label: &str) {
+    if world.report.over_shared_edges > 0 {
+        tell!(
+            "warning: {scene_label}: {} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface",
+            world.report.over_shared_edges
+        );
+    }
 }
 
 #[cfg(test)]

@@ -57,7 +57,8 @@ pub enum Command {
     /// whether every source and receiver is inside the room.
     Info(info::InfoArgs),
     /// The picture, the sound and the radio coverage of one scene in one directory, with a
-    /// summary sheet (summary.png) and a manifest (manifest.json).
+    /// summary sheet (summary.png), a summary (summary.txt) and a manifest of every file
+    /// written (manifest.json); a part that cannot run is skipped with a note saying why.
     Run(run::RunArgs),
     /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
     /// for every source-receiver pair, plus Sabine and Eyring estimates.

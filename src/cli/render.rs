@@ -112,6 +112,40 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
     Ok(cam)
 }
 
+/// The render part's pre-flight: the settings and camera, and whether the image fits in
+/// memory. The error is one line.
+pub fn plan(args: &RenderArgs, world: &World) -> anyhow::Result<(RenderSettings, Camera)> {
+    let s = settings(args, world).with_context(|| args.scene.display().to_string())?;
+    let pixels = u64::from(s.width) * u64::from(s.height);
+    crate::io::memory::check_fits(
+        &format!("a {}x{} render", s.width, s.height),
+        pixels * BYTES_PER_PIXEL + world.accel.mesh.memory_bytes() as u64,
+    )?;
+    let cam = camera(args, world, s.width as f32 / s.height as f32)
+        .with_context(|| args.scene.display().to_string())?;
+    Ok((s, cam))
+}
+
+/// Renders with a checked plan and (on rank 0) writes the image to `output` and prints one
+/// line; returns whether this process wrote it.
+pub fn execute(
+    world: &World,
+    s: &RenderSettings,
+    cam: &Camera,
+    output: &Path,
+    cluster: &Cluster,
+) -> anyhow::Result<bool> {
+    let rs = RenderScene::new(world);
+    let bar = super::progress::bar(u64::from(s.width) * u64::from(s.height), "rendering");
+    let out = render_on(cluster, &rs, cam, s, &|n| bar.inc(n)).map_err(|e| anyhow!("{e}"))?;
+    bar.finish_and_clear();
+    // Only rank 0 holds the image and writes.
+    let Some(out) = out else { return Ok(false) };
+    out.film.write(output)?;
+    say!("{}", summary(output, s, &out));
+    Ok(true)
+}
+
 pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     // Check the output name before the (possibly long) render.
     ImageFormat::from_path(&args.output)?;
@@ -124,22 +158,8 @@ pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
         tell!("warning: {w}");
     }
     let world = World::build(scene);
-    let s = settings(args, &world).with_context(|| args.scene.display().to_string())?;
-    let pixels = u64::from(s.width) * u64::from(s.height);
-    crate::io::memory::check_fits(
-        &format!("a {}x{} render", s.width, s.height),
-        pixels * BYTES_PER_PIXEL + world.accel.mesh.memory_bytes() as u64,
-    )?;
-    let cam = camera(args, &world, s.width as f32 / s.height as f32)
-        .with_context(|| args.scene.display().to_string())?;
-    let rs = RenderScene::new(&world);
-    let bar = super::progress::bar(u64::from(s.width) * u64::from(s.height), "rendering");
-    let out = render_on(cluster, &rs, &cam, &s, &|n| bar.inc(n)).map_err(|e| anyhow!("{e}"))?;
-    bar.finish_and_clear();
-    // Only rank 0 holds the image and writes.
-    let Some(out) = out else { return Ok(()) };
-    out.film.write(&args.output)?;
-    say!("{}", summary(&args.output, &s, &out));
+    let (s, cam) = plan(args, &world)?;
+    execute(&world, &s, &cam, &args.output, cluster)?;
     Ok(())
 }
 

@@ -125,7 +125,7 @@ pub struct RfArgs {
 }
 
 impl RfArgs {
-    fn overrides(&self) -> Overrides {
+    pub fn overrides(&self) -> Overrides {
         Overrides {
             tx: self.tx,
             freq_ghz: self.freq_ghz,

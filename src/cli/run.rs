@@ -1,16 +1,60 @@
 //! `propsim run [SCENE]`: the picture, the sound and the radio coverage of one scene, side by
-//! side in one directory, with a summary sheet and a manifest.
+//! side in one directory, with a summary sheet, a summary text and a manifest.
+//!
+//! The scene is loaded once and each part (render, acoustic, rf) is checked before any work
+//! starts: a part that cannot run is skipped with one `note:` line saying why and what would
+//! enable it, and the others run. A part that fails while running becomes a note too. The
+//! summary (summary.png, summary.txt) and the manifest (manifest.json, every file written and
+//! its size) are always written. The exit status is non-zero only for bad input (a scene that
+//! does not load, bad flags or render settings, an output directory that cannot be written)
+//! or when no part ran.
 
+use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context as _;
-use clap::{Args, Parser};
+use clap::{Args, Parser, ValueEnum};
 use image::{GenericImage, RgbImage};
 
 use crate::dist::Cluster;
-use crate::io::file_stem;
-use crate::scene::{self, LoadOptions};
+use crate::scene::{self, LoadOptions, World};
+
+/// One part of `propsim run`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Part {
+    Render,
+    Acoustic,
+    Rf,
+}
+
+impl Part {
+    const ALL: [Part; 3] = [Part::Render, Part::Acoustic, Part::Rf];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Part::Render => "render",
+            Part::Acoustic => "acoustic",
+            Part::Rf => "rf",
+        }
+    }
+}
+
+/// One name of `--only`, with the accepted names in the error.
+fn parse_part(s: &str) -> Result<Part, String> {
+    Part::from_str(s, true).map_err(|_| format!("\"{s}\": expected render, acoustic or rf"))
+}
+
+/// Image width of `--quick` at most, pixels (the scene's aspect ratio kept).
+pub const QUICK_WIDTH: u32 = 160;
+/// Samples per pixel of `--quick`.
+pub const QUICK_SPP: u32 = 4;
+/// Acoustic rays per source of `--quick`.
+pub const QUICK_ACOUSTIC_RAYS: u64 = 2_000;
+/// Image-source order of `--quick` (order 2 takes seconds in rooms of many planes).
+pub const QUICK_ISM_ORDER: u32 = 1;
+/// Radio rays per transmitter of `--quick`.
+pub const QUICK_RF_RAYS: u64 = 20_000;
 
 #[derive(Args, Debug)]
 pub struct RunArgs {
@@ -25,110 +69,520 @@ pub struct RunArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    /// The parts to run, a comma list of render, acoustic and rf (default: all three).
+    #[arg(long, value_parser = parse_part, value_delimiter = ',', num_args = 1)]
+    pub only: Vec<Part>,
+    /// Radio transmitter at X,Y,Z instead of the scene's (the rf part needs one).
+    #[arg(long, value_parser = super::parse_point, allow_hyphen_values = true)]
+    pub tx: Option<[f32; 3]>,
+    /// Radio: use ITU-R P.2040 fits outside their frequency ranges.
+    #[arg(long)]
+    pub extrapolate: bool,
+    /// Small settings for a quick look: images at most 160 pixels wide at 4 spp, 2000 acoustic
+    /// rays per source with first-order image sources, 20000 radio rays per transmitter (the
+    /// flags below override these).
+    #[arg(long)]
+    pub quick: bool,
+    /// Image width, pixels (default: the scene's, else 640).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height, pixels (default: the scene's, else 480).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel of the render (default: the scene's, else 64).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Acoustic rays per source (default: the scene's, else 200000).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=1_000_000_000))]
+    pub rays: Option<u64>,
+    /// Radio rays per transmitter (default: the scene's, else 10^6).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=crate::rf::config::MAX_RAYS))]
+    pub rf_rays: Option<u64>,
 }
 
-/// Runs one subcommand through the command-line layer, so `run` uses exactly the same
-/// defaults and checks as the individual commands. Returns its wall time in seconds.
-fn step(args: &[String], cluster: &Cluster) -> anyhow::Result<f64> {
-    let t = Instant::now();
-    let cli = super::Cli::try_parse_from(args).map_err(|e| anyhow::anyhow!("{}", e.to_string().trim()))?;
-    super::dispatch(cli.command, cluster)?;
-    Ok(t.elapsed().as_secs_f64())
+/// Parses the command line of one subcommand, so that `run` uses exactly the same defaults
+/// and checks as the individual commands.
+fn parse(args: Vec<String>) -> anyhow::Result<super::Command> {
+    let cli = super::Cli::try_parse_from(args).map_err(|e| {
+        let text = e.to_string();
+        anyhow::anyhow!("{}", text.lines().next().unwrap_or("invalid arguments").trim())
+    })?;
+    Ok(cli.command)
 }
 
-/// Pastes `path` (scaled to fit, aspect kept) into the `cell` of a 2 x 2 sheet.
-fn paste(sheet: &mut RgbImage, path: &Path, cell: (u32, u32), cell_size: (u32, u32)) -> anyhow::Result<()> {
-    let img = image::open(path).with_context(|| format!("{}: cannot read", path.display()))?.to_rgb8();
+/// What became of one part.
+#[derive(Clone, Debug, PartialEq)]
+enum Outcome {
+    /// Not asked for (`--only`).
+    NotSelected,
+    /// The pre-flight check found a reason it cannot run.
+    Skipped(String),
+    /// It started and failed.
+    Failed(String),
+    /// It ran, in this many seconds.
+    Ran(f64),
+}
+
+impl Outcome {
+    fn word(&self) -> &'static str {
+        match self {
+            Outcome::NotSelected => "not selected",
+            Outcome::Skipped(_) => "skipped",
+            Outcome::Failed(_) => "failed",
+            Outcome::Ran(_) => "ran",
+        }
+    }
+
+    fn reason(&self) -> Option<&str> {
+        match self {
+            Outcome::Skipped(r) | Outcome::Failed(r) => Some(r),
+            _ => None,
+        }
+    }
+
+    fn seconds(&self) -> Option<f64> {
+        match self {
+            Outcome::Ran(s) => Some(*s),
+            _ => None,
+        }
+    }
+}
+
+/// The reason a part is skipped, with what would enable it when the reason does not say.
+fn skip_reason(part: Part, reason: &str) -> String {
+    if part == Part::Acoustic && reason.contains(crate::acoustic::NO_AIR) {
+        format!(
+            "{reason} (an open or outdoor scene has no room acoustics: close the mesh to enable it; --only render,rf leaves the part out)"
+        )
+    } else {
+        reason.to_string()
+    }
+}
+
+/// Prints the one line that says a part is skipped or failed.
+fn note(part: Part, outcome: &Outcome) {
+    if let Some(reason) = outcome.reason() {
+        tell!("note: {} part {}: {reason}", part.name(), outcome.word());
+    }
+}
+
+/// Image size of `--quick`: the scene's (else the default) scaled down to [`QUICK_WIDTH`].
+fn quick_size(world: &World) -> (u32, u32) {
+    let desc = world.scene.desc.render.clone().unwrap_or_default();
+    let w = desc.width.unwrap_or(super::render::DEFAULT_SIZE.0).max(1);
+    let h = desc.height.unwrap_or(super::render::DEFAULT_SIZE.1).max(1);
+    if w <= QUICK_WIDTH {
+        return (w, h);
+    }
+    let scaled = (f64::from(h) * f64::from(QUICK_WIDTH) / f64::from(w)).round() as u32;
+    (QUICK_WIDTH, scaled.max(1))
+}
+
+/// Pastes `img` (scaled to fit, aspect kept) into the `cell` of a 2 x 2 sheet.
+fn paste(
+    sheet: &mut RgbImage,
+    img: &RgbImage,
+    cell: (u32, u32),
+    cell_size: (u32, u32),
+) -> anyhow::Result<()> {
     let scale = (f64::from(cell_size.0) / f64::from(img.width()))
         .min(f64::from(cell_size.1) / f64::from(img.height()));
     let (w, h) = ((f64::from(img.width()) * scale) as u32, (f64::from(img.height()) * scale) as u32);
-    let small = image::imageops::resize(&img, w.max(1), h.max(1), image::imageops::FilterType::Triangle);
+    let small = image::imageops::resize(img, w.max(1), h.max(1), image::imageops::FilterType::Triangle);
     let x = cell.0 * cell_size.0 + (cell_size.0 - small.width()) / 2;
     let y = cell.1 * cell_size.1 + (cell_size.1 - small.height()) / 2;
     sheet.copy_from(&small, x, y)?;
     Ok(())
 }
 
+/// Splits `text` into lines of at most `width` characters at spaces.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines = vec![String::new()];
+    for word in text.split_whitespace() {
+        let last = lines.last_mut().map_or(0, |l| l.chars().count());
+        if last > 0 && last + 1 + word.chars().count() > width {
+            lines.push(String::new());
+        }
+        if let Some(l) = lines.last_mut() {
+            if !l.is_empty() {
+                l.push(' ');
+            }
+            l.push_str(word);
+        }
+    }
+    lines
+}
+
+/// A white panel with `title` and `text` (wrapped): the summary sheet's cell for a part that
+/// did not run.
+fn text_panel(title: &str, text: &str, size: (u32, u32)) -> anyhow::Result<RgbImage> {
+    use plotters::prelude::*;
+    crate::io::plot::register_font();
+    let mut buf = vec![255u8; (size.0 * size.1 * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, size).into_drawing_area();
+        root.fill(&WHITE)?;
+        root.draw(&Text::new(title.to_string(), (30, 40), ("sans-serif", 26).into_font().color(&BLACK)))?;
+        let font = ("sans-serif", 17).into_font().color(&RGBColor(60, 60, 60));
+        for (k, line) in wrap(text, 90).into_iter().enumerate() {
+            root.draw(&Text::new(line, (30, 90 + 26 * k as i32), font.clone()))?;
+        }
+        root.present()?;
+    }
+    RgbImage::from_raw(size.0, size.1, buf).context("summary sheet: panel size")
+}
+
+/// The sheet's cell for `part`: the picture at `path` when the part ran and wrote it, else a
+/// panel saying why there is none.
+fn panel(part: Part, outcome: &Outcome, path: Option<&Path>, size: (u32, u32)) -> anyhow::Result<RgbImage> {
+    if let (Outcome::Ran(_), Some(p)) = (outcome, path) {
+        return Ok(image::open(p).with_context(|| format!("{}: cannot read", p.display()))?.to_rgb8());
+    }
+    let why = match outcome {
+        Outcome::NotSelected => "not selected (--only)".to_string(),
+        Outcome::Ran(_) => "no picture written".to_string(),
+        other => other.reason().unwrap_or_default().to_string(),
+    };
+    text_panel(&format!("{} part {}", part.name(), outcome.word()), &why, size)
+}
+
+/// `propsim CMD SCENE OUTPUT_FLAG OUTPUT --seed S [--materials F]... EXTRA...`, parsed.
+fn sub_args(
+    args: &RunArgs,
+    cmd: &str,
+    out_flag: &str,
+    out: &Path,
+    extra: &[String],
+) -> anyhow::Result<super::Command> {
+    let mut v: Vec<String> = vec![
+        "propsim".into(),
+        cmd.into(),
+        args.scene.display().to_string(),
+        out_flag.into(),
+        out.display().to_string(),
+        "--seed".into(),
+        args.seed.to_string(),
+    ];
+    for m in &args.materials {
+        v.extend(["--materials".to_string(), m.display().to_string()]);
+    }
+    v.extend(extra.iter().cloned());
+    parse(v)
+}
+
+/// The files a part wrote (on rank 0), in the order it wrote them.
+#[derive(Default)]
+struct Written {
+    files: Vec<PathBuf>,
+}
+
+impl Written {
+    /// The first file written whose name starts with `prefix` and ends with `suffix`.
+    fn find(&self, prefix: &str, suffix: &str) -> Option<&Path> {
+        self.files
+            .iter()
+            .find(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .is_some_and(|n| n.starts_with(prefix) && n.ends_with(suffix))
+            })
+            .map(PathBuf::as_path)
+    }
+}
+
 pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     // Load once up front: a bad scene fails before any work, with the usual one-line error.
     let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
-    let desc = scene.desc.clone();
+    for w in &scene.warnings {
+        tell!("warning: {w}");
+    }
+    let scene_label = args.scene.display().to_string();
+    let world = World::build(scene);
+    super::acoustic::warn_internal_sheets(&world, &scene_label);
+    let desc = world.scene.desc.clone();
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.out, true)?;
+    }
+    let selected = |p: Part| args.only.is_empty() || args.only.contains(&p);
+    let mut outcomes = [Outcome::NotSelected, Outcome::NotSelected, Outcome::NotSelected];
+
+    // Pre-flight of every selected part, before any work. The render needs only the mesh:
+    // a render that cannot be planned is bad input (its settings or camera).
+    let render_png = args.out.join("render.png");
+    let render_plan = if selected(Part::Render) {
+        let (qw, qh) = quick_size(&world);
+        let mut extra = Vec::new();
+        let mut flag = |name: &str, v: Option<String>| {
+            if let Some(v) = v {
+                extra.extend([name.to_string(), v]);
+            }
+        };
+        let quick = |v: u32| args.quick.then_some(v);
+        flag("--width", args.width.or(quick(qw)).map(|v| v.to_string()));
+        flag("--height", args.height.or(quick(qh)).map(|v| v.to_string()));
+        flag("--spp", args.spp.or(quick(QUICK_SPP)).map(|v| v.to_string()));
+        let super::Command::Render(rargs) = sub_args(args, "render", "-o", &render_png, &extra)? else {
+            anyhow::bail!("internal error: the render arguments parsed as another command");
+        };
+        Some(super::render::plan(&rargs, &world)?)
+    } else {
+        None
+    };
+    let acoustic_plan = if selected(Part::Acoustic) {
+        let mut extra = Vec::new();
+        if let Some(r) = args.rays.or(args.quick.then_some(QUICK_ACOUSTIC_RAYS)) {
+            extra.extend(["--rays".to_string(), r.to_string()]);
+        }
+        if args.quick {
+            extra.extend(["--ism-order".to_string(), QUICK_ISM_ORDER.to_string()]);
+        }
+        let super::Command::Acoustic(aargs) = sub_args(args, "acoustic", "--out", &args.out, &extra)? else {
+            anyhow::bail!("internal error: the acoustic arguments parsed as another command");
+        };
+        match super::acoustic::plan(&aargs, &world, &scene_label) {
+            Ok(p) => {
+                for n in &p.notes {
+                    tell!("note: acoustic part: {n}");
+                }
+                Some(p)
+            }
+            Err(e) => {
+                outcomes[1] = Outcome::Skipped(skip_reason(Part::Acoustic, &format!("{e:#}")));
+                note(Part::Acoustic, &outcomes[1]);
+                None
+            }
+        }
+    } else {
+        None
+    };
+    let rf_plan = if selected(Part::Rf) {
+        let mut extra = Vec::new();
+        if let Some(r) = args.rf_rays.or(args.quick.then_some(QUICK_RF_RAYS)) {
+            extra.extend(["--rays".to_string(), r.to_string()]);
+        }
+        if let Some([x, y, z]) = args.tx {
+            extra.push(format!("--tx={x},{y},{z}"));
+        }
+        if args.extrapolate {
+            extra.push("--extrapolate".into());
+        }
+        let super::Command::Rf(rargs) = sub_args(args, "rf", "--out", &args.out, &extra)? else {
+            anyhow::bail!("internal error: the rf arguments parsed as another command");
+        };
+        let config = crate::rf::RfConfig::from_scene(&world, &rargs.overrides())
+            .and_then(|c| crate::rf::check(&world, &c).map(|()| c));
+        match config {
+            Ok(c) => Some((rargs, c)),
+            Err(e) => {
+                outcomes[2] = Outcome::Skipped(skip_reason(Part::Rf, &format!("{scene_label}: {e}")));
+                note(Part::Rf, &outcomes[2]);
+                None
+            }
+        }
+    } else {
+        None
+    };
+
+    // Bad input has been refused by now: from here on the summary and manifest are written.
+    if cluster.is_root() {
         std::fs::create_dir_all(&args.out)
             .with_context(|| format!("{}: cannot create", args.out.display()))?;
     }
-    let scene_arg = args.scene.display().to_string();
-    let out = args.out.display().to_string();
-    let seed = args.seed.to_string();
-    let mut materials: Vec<String> = Vec::new();
-    for m in &args.materials {
-        materials.extend(["--materials".to_string(), m.display().to_string()]);
+
+    // The parts that can run, each failure a note.
+    let mut written = [Written::default(), Written::default(), Written::default()];
+    if let Some((settings, camera)) = &render_plan {
+        let t = Instant::now();
+        match super::render::execute(&world, settings, camera, &render_png, cluster) {
+            Ok(wrote) => {
+                if wrote {
+                    written[0].files.push(render_png.clone());
+                }
+                outcomes[0] = Outcome::Ran(t.elapsed().as_secs_f64());
+            }
+            Err(e) => {
+                outcomes[0] = Outcome::Failed(format!("{e:#}"));
+                note(Part::Render, &outcomes[0]);
+            }
+        }
     }
-    // `propsim CMD SCENE OUTPUT_FLAG OUTPUT --seed S [--materials F]...`
-    let sub = |cmd: &str, out_flag: &str, out: &str| {
-        let mut v: Vec<String> =
-            ["propsim", cmd, &scene_arg, out_flag, out, "--seed", &seed].map(String::from).to_vec();
-        v.extend(materials.iter().cloned());
-        v
-    };
-    let render_png = args.out.join("render.png");
-    let render_s = step(&sub("render", "-o", &render_png.display().to_string()), cluster)?;
-    let acoustic_s = step(&sub("acoustic", "--out", &out), cluster)?;
-    let rf_s = step(&sub("rf", "--out", &out), cluster)?;
+    if let Some(plan) = &acoustic_plan {
+        let t = Instant::now();
+        match super::acoustic::execute(&world, plan, &args.out, &scene_label, cluster, t) {
+            Ok(files) => {
+                written[1].files = files.unwrap_or_default();
+                outcomes[1] = Outcome::Ran(t.elapsed().as_secs_f64());
+            }
+            Err(e) => {
+                outcomes[1] = Outcome::Failed(format!("{e:#}"));
+                note(Part::Acoustic, &outcomes[1]);
+            }
+        }
+    }
+    if let Some((rargs, config)) = &rf_plan {
+        let t = Instant::now();
+        match run_rf(&world, rargs, config, &scene_label, cluster) {
+            Ok(files) => {
+                written[2].files = files;
+                outcomes[2] = Outcome::Ran(t.elapsed().as_secs_f64());
+            }
+            Err(e) => {
+                outcomes[2] = Outcome::Failed(format!("{e:#}"));
+                note(Part::Rf, &outcomes[2]);
+            }
+        }
+    }
+    let ran = outcomes.iter().any(|o| matches!(o, Outcome::Ran(_)));
     if !cluster.is_root() {
         return Ok(());
     }
 
-    // The summary sheet: render, coverage map, first pair's impulse response and decay curves.
-    let acoustic = desc.acoustic.clone().unwrap_or_default();
-    let pair = match (acoustic.sources.first(), acoustic.receivers.first()) {
-        (Some(src), Some(rcv)) => format!("{}_{}", file_stem(&src.name), file_stem(&rcv.name)),
-        _ => "S1_R1".into(),
-    };
+    // The summary sheet: render, coverage map, first pair's impulse response and decay
+    // curves; a part that did not run shows why.
     let cell = (900, 560);
     let mut sheet = RgbImage::from_pixel(cell.0 * 2, cell.1 * 2, image::Rgb([255, 255, 255]));
     let panels = [
-        (render_png.clone(), (0, 0)),
-        (args.out.join("coverage.png"), (1, 0)),
-        (args.out.join(format!("ir_{pair}.png")), (0, 1)),
-        (args.out.join(format!("decay_{pair}.png")), (1, 1)),
+        (Part::Render, written[0].find("render", ".png"), (0, 0)),
+        (Part::Rf, written[2].find("coverage", ".png"), (1, 0)),
+        (Part::Acoustic, written[1].find("ir_", ".png"), (0, 1)),
+        (Part::Acoustic, written[1].find("decay_", ".png"), (1, 1)),
     ];
-    for (path, at) in &panels {
-        paste(&mut sheet, path, *at, cell)?;
+    for (part, path, at) in panels {
+        let i = Part::ALL.iter().position(|p| *p == part).unwrap_or(0);
+        paste(&mut sheet, &panel(part, &outcomes[i], path, cell)?, at, cell)?;
     }
     let sheet_path = args.out.join("summary.png");
     let mut png = std::io::Cursor::new(Vec::new());
     sheet.write_to(&mut png, image::ImageFormat::Png)?;
     crate::io::atomic::write_bytes(&sheet_path, png.get_ref())?;
 
+    // The summary text: which parts ran and why the others did not (no timings, so that it is
+    // the same for any number of processes; they are in the manifest).
+    let text_path = args.out.join("summary.txt");
+    let mut text = format!("propsim run {scene_label}\n");
+    for (part, (o, w)) in Part::ALL.iter().zip(outcomes.iter().zip(&written)) {
+        let _ = write!(text, "{}: {}", part.name(), o.word());
+        if let Some(r) = o.reason() {
+            let _ = write!(text, ": {r}");
+        }
+        if matches!(o, Outcome::Ran(_)) {
+            let _ = write!(text, " ({} files)", w.files.len());
+        }
+        text.push('\n');
+    }
+    crate::io::atomic::write_bytes(&text_path, text.as_bytes())?;
+
+    // The manifest: every file written (but itself) with its size, relative to --out.
+    let mut files: Vec<PathBuf> = written.iter().flat_map(|w| w.files.iter().cloned()).collect();
+    files.extend([sheet_path.clone(), text_path.clone()]);
+    let mut outputs = Vec::new();
+    let mut seen = std::collections::BTreeSet::new();
+    for f in &files {
+        let rel = f.strip_prefix(&args.out).unwrap_or(f).display().to_string();
+        if !seen.insert(rel.clone()) {
+            continue;
+        }
+        let bytes = std::fs::metadata(f).with_context(|| format!("{}: cannot read", f.display()))?.len();
+        outputs.push(serde_json::json!({ "path": rel, "bytes": bytes }));
+    }
+    let parts: serde_json::Map<String, serde_json::Value> = Part::ALL
+        .iter()
+        .zip(&outcomes)
+        .map(|(p, o)| (p.name().to_string(), serde_json::json!({ "status": o.word(), "reason": o.reason() })))
+        .collect();
+    let details: Vec<&str> = [(1, "acoustic.json"), (2, "coverage.json")]
+        .into_iter()
+        .filter(|(i, _)| matches!(outcomes[*i], Outcome::Ran(_)))
+        .map(|(_, f)| f)
+        .collect();
     let manifest_path = args.out.join("manifest.json");
     let manifest = serde_json::json!({
         "propsim_version": env!("CARGO_PKG_VERSION"),
-        "scene": scene_arg,
+        "scene": scene_label,
         "seed": args.seed,
         "materials_files": args.materials,
         "threads": rayon::current_num_threads(),
         "processes": cluster.size(),
+        "parts": parts,
         "parameters": {
+            "quick": args.quick,
+            "tx": args.tx,
+            "extrapolate": args.extrapolate,
             "camera": desc.camera,
-            "render": desc.render,
+            "render": render_plan.as_ref().map(|(s, _)| serde_json::json!({
+                "width": s.width, "height": s.height, "spp": s.spp, "max_depth": s.max_depth,
+                "integrator": s.integrator.name(),
+            })),
             "lights": desc.lights,
             "spheres": desc.spheres,
             "acoustic": desc.acoustic,
+            "acoustic_rays": acoustic_plan.as_ref().map(|p| p.settings.rays),
             "rf": desc.rf,
-            "details": ["acoustic.json", "coverage.json"],
+            "rf_rays": rf_plan.as_ref().map(|(_, c)| c.rays),
+            "details": details,
         },
-        "timings_s": { "render": render_s, "acoustic": acoustic_s, "rf": rf_s, "total": started.elapsed().as_secs_f64() },
-        "outputs": ["render.png", "metrics.csv", "histogram.csv", "acoustic.json", "coverage.csv", "coverage.png", "coverage.json", "summary.png", "manifest.json"],
+        "timings_s": {
+            "render": outcomes[0].seconds(),
+            "acoustic": outcomes[1].seconds(),
+            "rf": outcomes[2].seconds(),
+            "total": started.elapsed().as_secs_f64(),
+        },
+        "outputs": outputs,
     });
     crate::io::atomic::write_bytes(&manifest_path, serde_json::to_string_pretty(&manifest)?.as_bytes())?;
+    let said: Vec<String> = Part::ALL
+        .iter()
+        .zip(&outcomes)
+        .map(|(p, o)| match o {
+            Outcome::Ran(s) => format!("{} {s:.1} s", p.name()),
+            other => format!("{} {}", p.name(), other.word()),
+        })
+        .collect();
     say!(
-        "run: render {render_s:.1} s, acoustic {acoustic_s:.1} s, radio {rf_s:.1} s; summary sheet {} and manifest {} ({:.1} s in all)",
+        "run: {}; summary sheet {}, summary {} and manifest {} ({} files, {:.1} s in all)",
+        said.join(", "),
         sheet_path.display(),
+        text_path.display(),
         manifest_path.display(),
+        outputs.len() + 1,
         started.elapsed().as_secs_f64()
     );
+    anyhow::ensure!(
+        ran,
+        "{scene_label}: no part could run (see the notes); wrote {} and {}",
+        text_path.display(),
+        manifest_path.display()
+    );
     Ok(())
+}
+
+/// The rf part: simulate a checked config, write the coverage files (rank 0) and print the
+/// map's one-line summary; returns the files written.
+fn run_rf(
+    world: &World,
+    rargs: &super::rf::RfArgs,
+    config: &crate::rf::RfConfig,
+    scene_label: &str,
+    cluster: &Cluster,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let bar = super::progress::bar(config.rays * config.transmitters.len() as u64, "rays");
+    let result = crate::rf::simulate_on(cluster, world, config, &|n| bar.inc(n))
+        .with_context(|| scene_label.to_string())?;
+    bar.finish_and_clear();
+    let Some(result) = result else { return Ok(Vec::new()) };
+    let s = super::rf::write_outputs(&rargs.out, scene_label, world, config, &result, rargs.png_width)?;
+    say!(
+        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s; wrote {} files",
+        scene_label,
+        config.grid.nx,
+        config.grid.ny,
+        config.grid.cell_m,
+        config.grid.height_m,
+        s.map.reached_cells,
+        config.rays,
+        result.seconds,
+        s.outputs.len()
+    );
+    Ok(s.outputs.iter().map(PathBuf::from).collect())
 }

@@ -92,6 +92,16 @@ pub fn surface_permittivities(
     Ok(out)
 }
 
+/// Whether [`simulate`] can run `config` in `world` (the pre-flight of `propsim run`): every
+/// surface in use has radio constants at every transmitter's frequency. ([`RfConfig::from_scene`]
+/// has already checked the transmitters, grid and settings.) The error is a one-line reason.
+pub fn check(world: &World, config: &RfConfig) -> Result<(), String> {
+    for tx in &config.transmitters {
+        surface_permittivities(world, tx.freq_ghz, config.extrapolate)?;
+    }
+    Ok(())
+}
+
 /// The slab thickness of every surface of `world`, metres: `wall_thickness_m` when given
 /// (`--wall-thickness-m`), else its material's `thickness_m`, else
 /// [`config::DEFAULT_WALL_THICKNESS_M`] (0.1 m, as in Sionna RT).
