@@ -81,7 +81,7 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
             material: surf.material.as_ref().map(|m| m.name.clone()),
             area_m2: r.area_by_surface_m2.get(i).copied().unwrap_or(0.0),
             acoustic: surf.material.as_ref().is_some_and(|m| m.acoustic.is_some()),
-            radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| format!("{r:?}")),
+            radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| r.to_string()),
         })
         .collect();
     let mut points = Vec::new();

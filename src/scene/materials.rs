@@ -68,6 +68,21 @@ pub enum RadioProps {
     Explicit { relative_permittivity: f64, conductivity_s_per_m: f64 },
 }
 
+impl std::fmt::Display for RadioProps {
+    /// `ITU concrete`, or `eps_r 5.24, sigma 0.123 S/m`: how `propsim info` shows it.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Itu(name) => write!(f, "ITU {name}"),
+            Self::Explicit { relative_permittivity, conductivity_s_per_m } => write!(
+                f,
+                "eps_r {}, sigma {} S/m",
+                crate::io::tidy(*relative_permittivity, 4),
+                crate::io::tidy(*conductivity_s_per_m, 4)
+            ),
+        }
+    }
+}
+
 /// How light interacts with a surface.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
