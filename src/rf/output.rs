@@ -288,7 +288,8 @@ pub const PATHS_CSV_COLUMNS: [&str; 12] = [
 pub const CFR_CSV_COLUMNS: [&str; 6] = ["transmitter", "receiver", "freq_hz", "re", "im", "gain_db"];
 
 /// A path's interactions as written in `paths.csv`: `LOS` for the direct path, else
-/// `R:SURFACE` per reflection, first first, separated by `;`.
+/// `R:SURFACE` per reflection and `D:SURFACE` (`D:SURFACE0|SURFACEN` on a wedge between two
+/// surfaces) per edge diffraction, first first, separated by `;`.
 pub fn interactions_text(interactions: &[Interaction], surface_names: &[String]) -> String {
     if interactions.is_empty() {
         return "LOS".into();
@@ -298,6 +299,8 @@ pub fn interactions_text(interactions: &[Interaction], surface_names: &[String])
         .iter()
         .map(|i| match *i {
             Interaction::Reflection { surface } => format!("R:{}", name(surface)),
+            Interaction::Diffraction { surfaces: [a, b] } if a == b => format!("D:{}", name(a)),
+            Interaction::Diffraction { surfaces: [a, b] } => format!("D:{}|{}", name(a), name(b)),
         })
         .collect::<Vec<_>>()
         .join(";")
