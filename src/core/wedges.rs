@@ -78,6 +78,14 @@ impl Wedge {
         phi <= self.n * std::f64::consts::PI
     }
 
+    /// True when `p` is in the exterior (or on a face): not behind both faces. The same as
+    /// `in_exterior` of its azimuth, with two dot products (a rim has no inside).
+    #[inline]
+    pub fn outside(&self, p: DVec3) -> bool {
+        let d = p - self.start;
+        !(d.dot(self.normals[0]) < 0.0 && d.dot(self.normals[1]) < 0.0) || self.rim
+    }
+
     /// The point at parameter `t` (metres from `start`) on the edge.
     #[inline]
     pub fn at(&self, t: f64) -> DVec3 {
@@ -288,6 +296,12 @@ mod tests {
             let inside =
                 out.x > 0.0 && out.x < 2.0 && out.y > 0.0 && out.y < 3.0 && out.z > 0.0 && out.z < 4.0;
             assert!(!inside);
+            // The cheap exterior test agrees with the azimuth.
+            for k in 0..64 {
+                let a = std::f64::consts::TAU * (k as f64 + 0.5) / 64.0;
+                let p = mid + 0.5 * x.direction_at(a) + 0.3 * x.edge;
+                assert_eq!(x.outside(p), x.in_exterior(x.azimuth(p).unwrap().0), "azimuth {a}");
+            }
             // Face n lies at azimuth n pi.
             let face_n = x.direction_at(x.n * std::f64::consts::PI);
             assert!(face_n.dot(x.face_dirs[1]) > 1.0 - 1e-9);

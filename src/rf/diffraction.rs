@@ -333,8 +333,7 @@ pub fn coverage(
             let mut paths = 0;
             for edge in &lit {
                 let w = edge.wedge;
-                let Some((phi, _)) = w.azimuth(rx) else { continue };
-                if !w.in_exterior(phi) {
+                if !w.outside(rx) {
                     continue;
                 }
                 let Some(t) = w.keller_point(tx, rx) else { continue };
