@@ -60,7 +60,7 @@ impl Wedge {
         let d = p - self.start;
         let rho = d - d.dot(self.edge) * self.edge;
         let r = rho.length();
-        if !(r > 1.0e-9) {
+        if r.is_nan() || r <= 1.0e-9 {
             return None;
         }
         let x = rho.dot(self.face_dirs[0]);
@@ -158,7 +158,8 @@ pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
             continue;
         }
         let (a, b, c) = (points[v[0] as usize], points[v[1] as usize], points[v[2] as usize]);
-        if !((b - a).cross(c - a).length() > 1.0e-12) {
+        let area2 = (b - a).cross(c - a).length();
+        if area2.is_nan() || area2 <= 1.0e-12 {
             continue;
         }
         for k in 0..3 {
@@ -176,7 +177,7 @@ pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
         }
         let (a, b) = (points[key.0 as usize], points[key.1 as usize]);
         let length = (b - a).length();
-        if !(length > tolerance) {
+        if length.is_nan() || length <= tolerance {
             continue;
         }
         let e = (b - a) / length;
@@ -263,7 +264,7 @@ fn exterior_is_free(accel: &Accel, w: &Wedge) -> bool {
             let (p, q) = (point(k), point(k + 1));
             let d = q - p;
             let len = d.length();
-            if !(len > 0.0) {
+            if len.is_nan() || len <= 0.0 {
                 continue;
             }
             let ray = Ray::segment(p.as_vec3(), (d / len).as_vec3(), len as f32);
@@ -343,7 +344,8 @@ mod tests {
         // 12 box edges + 4 ground rims, of which the 4 bottom edges are buried.
         assert_eq!(all.len(), 16);
         assert_eq!(free.len(), 12);
-        assert!(free.iter().all(|w| w.start.z > 0.0 || w.end.z > 0.0));
+        assert_eq!(free.iter().filter(|w| w.rim).count(), 4, "the ground's rims are free");
+        assert!(free.iter().filter(|w| !w.rim).all(|w| w.start.z > 0.0 || w.end.z > 0.0));
     }
 
     #[test]
