@@ -244,6 +244,25 @@ fn transmission_is_on_by_default_and_the_flags_switch_it() {
     assert_ne!(thick, default);
     assert_eq!(json["surfaces"][0]["surfaces"][0]["thickness_m"], 0.3);
     assert_eq!(json["physics"]["transmission"], "on (0.3 m slabs, --wall-thickness-m)");
+    // --no-diffraction: the rays' map alone (every reached cell has ray crossings), fewer
+    // cells reached, and the summary says so.
+    let (rays_only, json) = run("no_diffraction", &["--no-diffraction"]);
+    assert_eq!(json["config"]["diffraction"], false);
+    assert_eq!(json["physics"]["diffraction"], "off (--no-diffraction)");
+    assert!(json["transmitter_maps"][0].get("diffracted_cells").is_none());
+    let text = String::from_utf8_lossy(&rays_only);
+    for line in text.lines().skip(1) {
+        assert_eq!(line.contains(",,"), line.ends_with(",0"), "{line}");
+    }
+    assert!(reached(&default) > reached(&rays_only) + 100, "{} {}", reached(&default), reached(&rays_only));
+    let on = &serde_json::from_str::<serde_json::Value>(
+        &std::fs::read_to_string(dir.path().join("default/coverage.json")).unwrap(),
+    )
+    .unwrap()["transmitter_maps"][0];
+    assert!(
+        on["diffracted_cells"].as_u64().unwrap() > 1000 && on["lit_wedges"].as_u64().unwrap() > 10,
+        "{on}"
+    );
 }
 
 #[test]
