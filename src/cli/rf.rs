@@ -82,6 +82,10 @@ pub struct RfArgs {
     /// Walls are opaque half-spaces that only reflect.
     #[arg(long, overrides_with = "transmission")]
     pub no_transmission: bool,
+    /// No first-order edge diffraction (UTD, on by default: wedges between non-coplanar
+    /// faces and rims of open surfaces, transmitter -> edge -> cell or receiver).
+    #[arg(long)]
+    pub no_diffraction: bool,
     /// Slab thickness of every wall, m (default: each material's thickness_m, else 0.1).
     #[arg(long)]
     pub wall_thickness_m: Option<f64>,
@@ -142,6 +146,7 @@ impl RfArgs {
             seed: self.seed,
             extrapolate: self.extrapolate,
             no_transmission: self.no_transmission,
+            no_diffraction: self.no_diffraction,
             wall_thickness_m: self.wall_thickness_m,
             scattering_coefficient: self.scattering_coefficient,
             cfr_bandwidth_mhz: self.cfr_bandwidth_mhz,

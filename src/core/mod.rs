@@ -25,6 +25,7 @@ pub mod time_bins;
 pub mod traverse;
 pub mod triangle;
 pub mod visibility;
+pub mod wedges;
 
 pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
 pub use hit::{Hit, PrimitiveKind, SurfaceId};

@@ -75,6 +75,8 @@ pub struct Overrides {
     pub extrapolate: bool,
     /// Walls are opaque half-spaces that only reflect (transmission is on by default).
     pub no_transmission: bool,
+    /// No first-order edge diffraction (it is on by default; `--no-diffraction`).
+    pub no_diffraction: bool,
     /// Slab thickness of every wall, metres, instead of the materials' `thickness_m`.
     pub wall_thickness_m: Option<f64>,
     /// Radio scattering coefficient `S` of every surface, instead of the materials'
@@ -109,6 +111,9 @@ pub struct RfConfig {
     /// Walls as thin slabs that reflect and transmit (ITU-R P.2040-3 single layer), each
     /// of its material's thickness; otherwise opaque half-spaces that only reflect.
     pub transmission: bool,
+    /// First-order edge diffraction (UTD) from each transmitter to the grid and the point
+    /// receivers ([`crate::rf::diffraction`]); on unless `--no-diffraction`.
+    pub diffraction: bool,
     /// Slab thickness of every wall, metres, overriding the materials' (`--wall-thickness-m`).
     pub wall_thickness_m: Option<f64>,
     /// Scattering coefficient `S` of every surface, overriding the materials'
@@ -406,6 +411,7 @@ impl RfConfig {
             seed: o.seed.unwrap_or(1),
             extrapolate: o.extrapolate,
             transmission: !o.no_transmission,
+            diffraction: !o.no_diffraction,
             wall_thickness_m,
             scattering_coefficient: o.scattering_coefficient,
             max_path_m: MAX_PATH_M,

@@ -17,6 +17,7 @@ pub mod antenna;
 pub mod coefficient_table;
 pub mod config;
 pub mod coverage;
+pub mod diffraction;
 pub mod fresnel;
 pub mod output;
 pub mod plot;
@@ -172,6 +173,11 @@ pub struct TransmitterResult {
     pub trace_seconds: f64,
     /// Ray segments traced for the map (launches, reflections, transmissions), all processes.
     pub segments: u64,
+    /// The first-order diffracted power on the grid (already in `coverage`), when
+    /// diffraction is on.
+    pub diffraction: Option<diffraction::DiffractionMap>,
+    /// Wall time of the diffraction (map and receivers), seconds.
+    pub diffraction_seconds: f64,
 }
 
 /// A finished simulation.
@@ -229,7 +235,8 @@ pub struct PhysicsSettings {
     pub extrapolate: bool,
     /// `on (THICKNESS, SOURCE)` or `off (opaque walls)`.
     pub transmission: String,
-    pub diffraction: &'static str,
+    /// `on (first order, UTD, N wedges)` or `off (--no-diffraction)`.
+    pub diffraction: String,
     /// `off (S = 0)` or `on (S = ..., PATTERN, SOURCE)`: diffuse reflection (sec. 4).
     pub diffuse_reflection: String,
 }
@@ -237,12 +244,22 @@ pub struct PhysicsSettings {
 impl PhysicsSettings {
     /// The settings of `config` over `world` (the surfaces in use give the thicknesses).
     pub fn of(world: &World, config: &RfConfig) -> Self {
+        let wedges = if config.diffraction { scene_wedges(world).len() } else { 0 };
+        Self::with_wedges(world, config, wedges)
+    }
+
+    /// [`PhysicsSettings::of`] with the number of diffracting wedges already counted.
+    fn with_wedges(world: &World, config: &RfConfig, wedges: usize) -> Self {
         Self {
             rays_per_transmitter: config.rays,
             max_depth: config.max_depth,
             extrapolate: config.extrapolate,
             transmission: transmission_text(world, config),
-            diffraction: "off (not implemented)",
+            diffraction: if config.diffraction {
+                format!("on (first order, UTD, {wedges} wedges)")
+            } else {
+                "off (--no-diffraction)".into()
+            },
             diffuse_reflection: diffuse_text(world, config),
         }
     }
@@ -259,6 +276,13 @@ impl PhysicsSettings {
             if self.extrapolate { "on" } else { "off" }
         )
     }
+}
+
+/// The diffracting wedges of `world`: every wedge and rim of its mesh with a free exterior
+/// ([`crate::core::wedges`]).
+pub fn scene_wedges(world: &World) -> Vec<crate::core::wedges::Wedge> {
+    let all = crate::core::wedges::extract_wedges(&world.scene.mesh);
+    crate::core::wedges::free_wedges(&world.accel, &all)
 }
 
 /// `on (0.1 m slabs, default)` and the like: the walls' thickness and where it comes from.
@@ -355,6 +379,8 @@ pub fn simulate_on(
     let mut rx_power_mw = vec![0.0; config.grid.cells()];
     let mut transmitters = Vec::new();
     let planes = if config.receivers.is_empty() { Planes::default() } else { Planes::of(&world.scene.mesh) };
+    // Diffraction is computed by the root alone, after the rays' sums are reduced.
+    let wedges = if config.diffraction && cluster.is_root() { scene_wedges(world) } else { Vec::new() };
     for (ti, tx) in config.transmitters.iter().enumerate() {
         let eta =
             surface_permittivities(world, tx.freq_ghz, config.extrapolate).map_err(anyhow::Error::msg)?;
@@ -395,6 +421,16 @@ pub fn simulate_on(
             continue;
         }
         let trace_seconds = t0.elapsed().as_secs_f64();
+        let t1 = std::time::Instant::now();
+        let diffracted = config.diffraction.then(|| {
+            diffraction::coverage(&world.accel, &wedges, &physics, &tx.antenna, tx.position, &config.grid)
+        });
+        if let Some(d) = &diffracted {
+            let c = tx_cov.get_or_insert_with(|| Coverage::empty(config.grid));
+            for (g, dg) in c.path_gain.iter_mut().zip(&d.path_gain) {
+                *g += dg;
+            }
+        }
         let p_mw = 10f64.powf(tx.power_dbm / 10.0);
         if let Some(c) = &tx_cov {
             for (acc, g) in rx_power_mw.iter_mut().zip(&c.path_gain) {
@@ -407,7 +443,7 @@ pub fn simulate_on(
             .receivers
             .iter()
             .map(|r| {
-                coherent_paths(
+                let mut sum = coherent_paths(
                     &world.accel,
                     &planes,
                     &physics,
@@ -415,9 +451,22 @@ pub fn simulate_on(
                     tx.position,
                     r.position,
                     receiver_depth,
-                )
+                );
+                if config.diffraction {
+                    let d = diffraction::paths(
+                        &world.accel,
+                        &wedges,
+                        &physics,
+                        &tx.antenna,
+                        tx.position,
+                        r.position,
+                    );
+                    add_paths(&mut sum, d);
+                }
+                sum
             })
             .collect();
+        let diffraction_seconds = if config.diffraction { t1.elapsed().as_secs_f64() } else { 0.0 };
         let surfaces = world
             .scene
             .surfaces
@@ -451,6 +500,8 @@ pub fn simulate_on(
             receiver_depth,
             trace_seconds,
             segments: segments[0],
+            diffraction: diffracted,
+            diffraction_seconds,
         });
     }
     if !cluster.is_root() {
@@ -459,12 +510,28 @@ pub fn simulate_on(
     let surface_names = world.scene.surfaces.iter().map(|s| s.name.clone()).collect();
     Ok(Some(RfResult {
         coverage,
-        settings: PhysicsSettings::of(world, config),
+        settings: PhysicsSettings::with_wedges(world, config, wedges.len()),
         rx_power_mw,
         transmitters,
         surface_names,
         seconds: start.elapsed().as_secs_f64(),
     }))
+}
+
+/// Adds the paths `records` (diffracted, one interaction each) to the coherent sum `sum`.
+fn add_paths(sum: &mut PathSum, records: Vec<receivers::PathRecord>) {
+    if records.is_empty() {
+        return;
+    }
+    for r in records {
+        sum.paths += 1;
+        sum.path_orders.push(r.interactions.len());
+        sum.path_lengths_m.push(r.length_m);
+        sum.incoherent_gain += r.field.power();
+        sum.records.push(r);
+    }
+    let total = sum.records.iter().fold(propagation::FieldVec::default(), |t, r| t.add(&r.field));
+    sum.coherent_gain = total.power();
 }
 
 /// A point receiver of the coherent mode.

@@ -16,8 +16,11 @@ pub const ESTIMATOR: &str = "path_gain_db is the average path gain over the cell
 g = (1/A) integral |h|^2 dA: the power (incoherent) sum of the ray paths crossing the cell at the \
 grid height, each ray carrying P_tx G_tx(dir) / N times its product of |Gamma|^2 and counted with \
 1/|cos theta|, times lambda^2 / (4 pi) / P_tx (isotropic receiver; transmitter gain included); \
-summed over transmitters. rx_power_dbm = 10 log10(sum over transmitters of P_tx g). paths = ray \
-crossings of the cell. Empty values: no ray reached the cell.";
+summed over transmitters. With diffraction on, g also holds the power of the first-order \
+diffracted paths (UTD, transmitter -> edge -> cell centre, a point value at the cell's centre; \
+docs/radio.md, sec. 5). rx_power_dbm = 10 log10(sum over transmitters of P_tx g). paths = ray \
+crossings of the cell (diffracted paths not counted: a shadowed cell may have a value and 0 \
+crossings). Empty values: no ray and no diffracted path reached the cell.";
 
 /// What the columns added with several transmitters mean, repeated in the JSON summary.
 pub const SERVERS: &str = "With several transmitters: best_server = the transmitter with the \
@@ -137,6 +140,14 @@ pub struct TransmitterMap {
     /// Cells where this transmitter is the best server (several transmitters only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub best_server_cells: Option<usize>,
+    /// Cells reached by at least one diffracted path, and the wedges whose edge this
+    /// transmitter sees (diffraction on only).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub diffracted_cells: Option<usize>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lit_wedges: Option<usize>,
+    /// Wall time of the diffraction (map and receivers), seconds.
+    pub diffraction_seconds: f64,
 }
 
 /// The JSON summary: every parameter, the estimator, timings and receivers.
@@ -213,6 +224,9 @@ pub fn summary<'a>(
             transmitter: t.name.clone(),
             map: map_stats(&t.coverage),
             best_server_cells: several.then_some(n),
+            diffracted_cells: t.diffraction.as_ref().map(|d| d.cells()),
+            lit_wedges: t.diffraction.as_ref().map(|d| d.lit_wedges),
+            diffraction_seconds: t.diffraction_seconds,
         })
         .collect();
     let mut receivers = Vec::new();
@@ -298,7 +312,8 @@ pub const PATHS_CSV_COLUMNS: [&str; 12] = [
 pub const CFR_CSV_COLUMNS: [&str; 6] = ["transmitter", "receiver", "freq_hz", "re", "im", "gain_db"];
 
 /// A path's interactions as written in `paths.csv`: `LOS` for the direct path, else
-/// `R:SURFACE` per reflection, first first, separated by `;`.
+/// `R:SURFACE` per reflection and `D:SURFACE` (`D:SURFACE0|SURFACEN` on a wedge between two
+/// surfaces) per edge diffraction, first first, separated by `;`.
 pub fn interactions_text(interactions: &[Interaction], surface_names: &[String]) -> String {
     if interactions.is_empty() {
         return "LOS".into();
@@ -308,6 +323,8 @@ pub fn interactions_text(interactions: &[Interaction], surface_names: &[String])
         .iter()
         .map(|i| match *i {
             Interaction::Reflection { surface } => format!("R:{}", name(surface)),
+            Interaction::Diffraction { surfaces: [a, b] } if a == b => format!("D:{}", name(a)),
+            Interaction::Diffraction { surfaces: [a, b] } => format!("D:{}|{}", name(a), name(b)),
         })
         .collect::<Vec<_>>()
         .join(";")

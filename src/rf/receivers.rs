@@ -29,7 +29,8 @@ use crate::core::specular::{Planes, SpecularPath, specular_paths};
 pub struct PathSum {
     /// Valid paths found (line of sight counts as one).
     pub paths: usize,
-    /// Reflections of each path, in the order found.
+    /// Interactions of each path (its reflections; 1 for an edge diffraction), in the order
+    /// found.
     pub path_orders: Vec<usize>,
     /// Length of each path, metres, in the same order.
     pub path_lengths_m: Vec<f64>,
@@ -47,6 +48,9 @@ pub struct PathSum {
 pub enum Interaction {
     /// A specular reflection on this surface (`SurfaceId`).
     Reflection { surface: u32 },
+    /// A first-order edge diffraction on the wedge between these surfaces (face 0, face n;
+    /// the same twice on a rim), see [`crate::rf::diffraction`].
+    Diffraction { surfaces: [u32; 2] },
 }
 
 /// One path of a channel impulse response (docs/radio.md, sec. 3).
