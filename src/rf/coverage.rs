@@ -9,9 +9,13 @@
 //! `g = (sum / A) (lambda^2 / 4 pi) / P_tx` (an isotropic receiver's effective area), i.e.
 //! the power (incoherent) sum over the ray paths crossing the cell.
 //!
-//! Deposits are added in 32.32 fixed point with atomic integer adds, which are exact and
-//! associative: the grid does not depend on the thread count or the order of the rays.
+//! Deposits are added in 32.32 fixed point with integer adds, which are exact and
+//! associative: the grid does not depend on the thread count or the order of the rays. The
+//! launcher's blocks collect their crossings in a list that is added to the grid when the
+//! block is merged ([`CoverageAccumulator::absorb`], one thread at a time) rather than with
+//! atomic adds from both threads into the same cells (3-4 % faster on the street canyon).
 
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU32, AtomicU64, Ordering};
 
 /// Fixed-point scale of the deposits (2^32).
@@ -87,6 +91,8 @@ pub struct CoverageAccumulator {
     pub spec: GridSpec,
     sum: Vec<AtomicU64>,
     paths: Vec<AtomicU32>,
+    /// Held while a list of crossings is added ([`Self::absorb`]).
+    absorbing: Mutex<()>,
 }
 
 impl CoverageAccumulator {
@@ -96,29 +102,47 @@ impl CoverageAccumulator {
             spec,
             sum: (0..n).map(|_| AtomicU64::new(0)).collect(),
             paths: (0..n).map(|_| AtomicU32::new(0)).collect(),
+            absorbing: Mutex::new(()),
         }
     }
 
-    /// Records a segment from `origin` along the unit `dir` over `(0, length]` carrying
-    /// `weight` (power relative to `P_tx / N`): adds `weight / |cos theta|` to the cell it
-    /// crosses, if any.
+    /// The deposit of a segment from `origin` along the unit `dir` over `(0, length]`
+    /// carrying `weight` (power relative to `P_tx / N`): the cell it crosses, if any, and
+    /// `weight / |cos theta|` in fixed point.
     #[inline]
-    pub fn record(&self, origin: [f64; 3], dir: [f64; 3], length: f64, weight: f64) {
+    pub fn crossing(&self, origin: [f64; 3], dir: [f64; 3], length: f64, weight: f64) -> Option<(u32, u64)> {
         let dz = dir[2];
         if dz == 0.0 || weight <= 0.0 {
-            return;
+            return None;
         }
         let t = (self.spec.height_m - origin[2]) / dz;
         if !(t > 0.0 && t <= length) {
-            return;
+            return None;
         }
-        let Some(cell) = self.spec.cell_of(origin[0] + t * dir[0], origin[1] + t * dir[1]) else {
-            return;
-        };
+        let cell = self.spec.cell_of(origin[0] + t * dir[0], origin[1] + t * dir[1])?;
         let v = weight / dz.abs().max(MIN_CROSSING_COS);
-        let fixed = (v * FIXED_SCALE).round() as u64;
-        self.sum[cell].fetch_add(fixed, Ordering::Relaxed);
-        self.paths[cell].fetch_add(1, Ordering::Relaxed);
+        Some((cell as u32, (v * FIXED_SCALE).round() as u64))
+    }
+
+    /// Records a segment (see [`Self::crossing`]) at once, with atomic adds.
+    #[inline]
+    pub fn record(&self, origin: [f64; 3], dir: [f64; 3], length: f64, weight: f64) {
+        if let Some((cell, fixed)) = self.crossing(origin, dir, length, weight) {
+            self.sum[cell as usize].fetch_add(fixed, Ordering::Relaxed);
+            self.paths[cell as usize].fetch_add(1, Ordering::Relaxed);
+        }
+    }
+
+    /// Adds a list of crossings ([`Self::crossing`]) with plain loads and stores, one list at a
+    /// time. Must not run while another thread calls [`Self::record`] on this grid (the
+    /// launcher records through lists only).
+    pub fn absorb(&self, crossings: &[(u32, u64)]) {
+        let _one_at_a_time = self.absorbing.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        for &(cell, fixed) in crossings {
+            let (sum, paths) = (&self.sum[cell as usize], &self.paths[cell as usize]);
+            sum.store(sum.load(Ordering::Relaxed).wrapping_add(fixed), Ordering::Relaxed);
+            paths.store(paths.load(Ordering::Relaxed).wrapping_add(1), Ordering::Relaxed);
+        }
     }
 
     /// The average path gain of every cell (linear, 0 where no ray crossed) for a launch of

@@ -410,7 +410,8 @@ pub fn simulate_on(
                 max_reflections: config.max_depth,
                 max_path_m: config.max_path_m as f32,
             };
-            segments[0] = launcher::launch_share(&world.accel, &prop, &launch, cluster.share(), progress);
+            segments[0] =
+                launcher::launch_share(&world.accel, &prop, &launch, cluster.share(), progress).segments;
             cluster.sum_u64(&mut segments);
             let mut totals = grid.totals();
             cluster.sum_u64(&mut totals.sum);

@@ -217,20 +217,29 @@ pub struct RadioPropagation<'a> {
     pub grid: &'a CoverageAccumulator,
 }
 
+/// What a block of radio rays leaves behind: its segment count and its grid crossings (cell,
+/// fixed-point deposit), added to the grid when the block is merged.
+#[derive(Debug, Default)]
+pub struct RadioAccum {
+    pub segments: u64,
+    pub crossings: Vec<(u32, u64)>,
+}
+
 /// Below this relative power a ray stops (it can no longer change any cell's value).
 const MIN_POWER: f64 = 1.0e-12;
 
 impl Propagation for RadioPropagation<'_> {
     type Payload = FieldVec;
-    /// Segments traced.
-    type Accum = u64;
+    type Accum = RadioAccum;
 
-    fn new_accum(&self) -> u64 {
-        0
+    fn new_accum(&self) -> RadioAccum {
+        RadioAccum::default()
     }
 
-    fn merge(&self, into: &mut u64, other: u64) {
-        *into += other;
+    /// Adds the block's crossings to the grid (blocks are merged one at a time).
+    fn merge(&self, into: &mut RadioAccum, other: RadioAccum) {
+        into.segments += other.segments;
+        self.grid.absorb(&other.crossings);
     }
 
     fn emit(&self, _ray_index: u64, dir: Vec3) -> FieldVec {
@@ -238,19 +247,21 @@ impl Propagation for RadioPropagation<'_> {
         FieldVec::real(self.antenna.polarization(d) * self.antenna.gain(d).sqrt())
     }
 
-    fn segment(&self, segments: &mut u64, payload: &FieldVec, ray: &Ray, length_m: f32, _: f32, _: u32) {
-        *segments += 1;
-        self.grid.record(
+    fn segment(&self, acc: &mut RadioAccum, payload: &FieldVec, ray: &Ray, length_m: f32, _: f32, _: u32) {
+        acc.segments += 1;
+        if let Some(c) = self.grid.crossing(
             ray.origin.as_dvec3().to_array(),
             ray.dir.as_dvec3().to_array(),
             f64::from(length_m),
             payload.power(),
-        );
+        ) {
+            acc.crossings.push(c);
+        }
     }
 
     fn interact(
         &self,
-        _: &mut u64,
+        _: &mut RadioAccum,
         payload: &mut FieldVec,
         hit: &Hit,
         incoming: Vec3,
