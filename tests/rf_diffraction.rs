@@ -23,14 +23,17 @@ fn lambda() -> f64 {
     C0 / F_HZ
 }
 
-/// A near-perfect conductor (10^7 S/m): |R| = 1 to 1e-4 at any angle, opaque half-spaces.
+/// A near-perfect conductor (10^7 S/m): |R| = 1 to 1e-4 at any angle, opaque half-spaces;
+/// its coefficients tabulated as `propsim rf` runs them.
 fn metal_physics() -> SurfacePhysics {
     SurfacePhysics {
         eta: vec![Some(complex_permittivity(1.0, 1.0e7, F_HZ))],
         slab_thickness_m: None,
         wavelength_m: lambda(),
         scattering: Vec::new(),
+        table: None,
     }
+    .tabulated()
 }
 
 /// ITU-R P.526-15 eq. (31): the single knife-edge loss `J(nu)`, dB, for `nu > -0.78`.
