@@ -110,8 +110,9 @@ fn run(dir: &Path, ranks: u32, args: &[&str]) {
 
 /// Keys of the JSON summaries that legitimately differ between runs: timings, the process
 /// count and the output paths.
-const VOLATILE_KEYS: [&str; 11] = [
+const VOLATILE_KEYS: [&str; 12] = [
     "seconds",
+    "segments_per_second",
     "diffraction_seconds",
     "rays_per_second",
     "wall_time_s",
