@@ -162,3 +162,38 @@ fn bad_inputs_give_one_line_errors() {
     assert_clean_error(&["render", "missing.toml"], &["missing.toml"]);
     assert_clean_error(&["render", "builtin:nope"], &["nope"]);
 }
+
+#[test]
+fn a_scene_without_light_gets_one_warning_line_except_under_the_headlight() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("dark.obj"), format!("mtllib dark.mtl\n{ROOM_OBJ}")).unwrap();
+    // The same room with its lamp switched off: nothing emits and the background is black.
+    std::fs::write(dir.path().join("dark.mtl"), ROOM_MTL.replace("Ke 4 4 4", "Ke 0 0 0")).unwrap();
+    let (ok, _, err) =
+        propsim_in(dir.path(), &["render", "dark.obj", "--width", "32", "--height", "24", "--spp", "1"]);
+    assert!(ok, "{err}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "{err}");
+    assert!(lines[0].starts_with("warning: dark.obj: no light"), "{err}");
+    let (ok, _, err) = propsim_in(
+        dir.path(),
+        &[
+            "render",
+            "dark.obj",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--integrator",
+            "raycast",
+            "--output",
+            "r.png",
+        ],
+    );
+    assert!(ok && err.is_empty(), "{err}");
+    // The lit room: no warning.
+    std::fs::write(dir.path().join("dark.mtl"), ROOM_MTL).unwrap();
+    let (ok, _, err) =
+        propsim_in(dir.path(), &["render", "dark.obj", "--width", "32", "--height", "24", "--spp", "1"]);
+    assert!(ok && err.is_empty(), "{err}");
+}

@@ -123,6 +123,11 @@ pub fn plan(args: &RenderArgs, world: &World) -> anyhow::Result<(RenderSettings,
     )?;
     let cam = camera(args, world, s.width as f32 / s.height as f32)
         .with_context(|| args.scene.display().to_string())?;
+    if s.integrator != IntegratorKind::Raycast
+        && let Some(why) = crate::render::unlit_reason(world)
+    {
+        tell!("warning: {}: {why}", args.scene.display());
+    }
     Ok((s, cam))
 }
 

@@ -220,6 +220,20 @@ pub struct RenderScene<'a> {
     triangles: Vec<(Vec3, u32)>,
 }
 
+/// Why `world` renders black with any integrator but `raycast` (whose headlight lights every
+/// scene): no `[[lights]]`, no emissive material and a black background. `None` when lit.
+pub fn unlit_reason(world: &World) -> Option<&'static str> {
+    let s = &world.scene;
+    let background =
+        s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
+    let emitters =
+        s.surfaces.iter().any(|surface| SurfaceOptics::from_surface(surface).emission.max_element() > 0.0);
+    (s.desc.lights.is_empty() && !emitters && background == Vec3::ZERO).then_some(
+        "no light: no [[lights]], no emissive material (OBJ `Ke`) and a black background, so the \
+         image will be black (add [[lights]] or a `Ke` material, or use --integrator raycast)",
+    )
+}
+
 impl<'a> RenderScene<'a> {
     /// The render scene of a loaded world (materials resolved per [`SurfaceOptics::from_surface`],
     /// point lights from `[[lights]]`, background from `[render]`).
