@@ -639,3 +639,28 @@ fn two_transmitters_get_best_server_sinr_and_their_own_maps() {
         assert_eq!(m["best_server_cells"], 900, "{m}");
     }
 }
+
+#[test]
+fn a_grid_that_misses_the_model_gets_one_warning_line() {
+    // The canyon's ground is at z = 0 and its roofs at most 40 m up: a plane at 80 m, or a
+    // grid 1 km away, cannot show it (what a Y-up model or a wrong grid gives).
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().to_str().unwrap();
+    for (args, needle) in [
+        (vec!["--grid-height", "80"], "plane z = 80 m misses the model"),
+        (vec!["--grid-min", "1000,1000", "--grid-max", "1010,1010"], "lies beside the model"),
+    ] {
+        let mut all =
+            vec!["rf", CANYON, "--rays", "2000", "--no-receivers", "--no-diffraction", "--out", out];
+        all.extend(args);
+        let (ok, _, err) = propsim(&all);
+        assert!(ok, "{err}");
+        let lines: Vec<&str> = err.lines().collect();
+        assert_eq!(lines.len(), 1, "{err}");
+        assert!(lines[0].starts_with("warning: ") && lines[0].contains(needle), "{err}");
+    }
+    // The scene's own grid shows the model: no warning.
+    let (ok, _, err) =
+        propsim(&["rf", CANYON, "--rays", "2000", "--no-receivers", "--no-diffraction", "--out", out]);
+    assert!(ok && err.is_empty(), "{err}");
+}

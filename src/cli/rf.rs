@@ -281,6 +281,9 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let scene_name = args.scene.display().to_string();
     let config =
         RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
+    if let Some(why) = crate::rf::grid_misses_model(&world, &config) {
+        tell!("warning: {scene_name}: {why}");
+    }
     // The output directory is checked before the (possibly long) simulation.
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.out, true)?;

@@ -373,7 +373,12 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
         let config = crate::rf::RfConfig::from_scene(&world, &rargs.overrides())
             .and_then(|c| crate::rf::check(&world, &c).map(|()| c));
         match config {
-            Ok(c) => Some((rargs, c)),
+            Ok(c) => {
+                if let Some(why) = crate::rf::grid_misses_model(&world, &c) {
+                    tell!("warning: {scene_label}: {why}");
+                }
+                Some((rargs, c))
+            }
             Err(e) => {
                 outcomes[2] = Outcome::Skipped(skip_reason(Part::Rf, &format!("{scene_label}: {e}")));
                 note(Part::Rf, &outcomes[2]);

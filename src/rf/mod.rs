@@ -103,6 +103,44 @@ pub fn check(world: &World, config: &RfConfig) -> Result<(), String> {
     Ok(())
 }
 
+/// Why the coverage grid of `config` cannot show the model of `world`, if it cannot: its plane
+/// lies above or below the whole model, or its rectangle beside it. Both usually mean a model
+/// whose up axis is not z (Blender's OBJ export is Y-up) or whose unit is not the metre.
+pub fn grid_misses_model(world: &World, config: &RfConfig) -> Option<String> {
+    let (lo, hi) = world.scene.mesh.bounds()?;
+    let g = &config.grid;
+    let (x1, y1) = (g.min_m[0] + g.cell_m * g.nx as f64, g.min_m[1] + g.cell_m * g.ny as f64);
+    let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
+    let t = |x: f64| crate::io::tidy(x, 4);
+    let model = format!(
+        "the model spans x {}..{}, y {}..{}, z {}..{} m",
+        t(lo.x),
+        t(hi.x),
+        t(lo.y),
+        t(hi.y),
+        t(lo.z),
+        t(hi.z)
+    );
+    if g.height_m < lo.z || g.height_m > hi.z {
+        return Some(format!(
+            "the coverage grid's plane z = {} m misses the model ({model}); if the model is Y-up, export it Z-up \
+             or give --grid-height",
+            t(g.height_m)
+        ));
+    }
+    if x1 < lo.x || g.min_m[0] > hi.x || y1 < lo.y || g.min_m[1] > hi.y {
+        return Some(format!(
+            "the coverage grid x {}..{}, y {}..{} m lies beside the model ({model}) \
+             (give --grid-min and --grid-max)",
+            t(g.min_m[0]),
+            t(x1),
+            t(g.min_m[1]),
+            t(y1)
+        ));
+    }
+    None
+}
+
 /// The slab thickness of every surface of `world`, metres: `wall_thickness_m` when given
 /// (`--wall-thickness-m`), else its material's `thickness_m`, else
 /// [`config::DEFAULT_WALL_THICKNESS_M`] (0.1 m, as in Sionna RT).
