@@ -17,8 +17,8 @@ use crate::dist::Cluster;
 use crate::io::atomic::write_atomically;
 use crate::io::plot::{Chart, Series, line_chart};
 use crate::io::{file_stem, wav};
+use crate::scene::World;
 use crate::scene::materials::BAND_COUNT;
-use crate::scene::{self, LoadOptions, World};
 
 #[derive(Args, Debug)]
 pub struct AcousticArgs {
@@ -509,12 +509,8 @@ pub fn execute(
 
 pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
-    let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
-    for w in &scene.warnings {
-        tell!("warning: {w}");
-    }
+    let world = super::load_world(&args.scene, &args.materials)?;
     let scene_label = args.scene.display().to_string();
-    let world = World::build(scene);
     warn_internal_sheets(&world, &scene_label);
     let plan = plan(args, &world, &scene_label)?;
     for n in &plan.notes {

@@ -23,6 +23,20 @@ macro_rules! tell {
     ($($t:tt)*) => { if $crate::cli::speaks() { $crate::errln!($($t)*) } };
 }
 
+/// Loads a scene with extra materials files, prints its warnings (root only) and builds its
+/// world: the first step of every simulating command.
+fn load_world(
+    scene_path: &std::path::Path,
+    materials: &[std::path::PathBuf],
+) -> anyhow::Result<crate::scene::World> {
+    let options = crate::scene::LoadOptions { materials_files: materials.to_vec() };
+    let scene = crate::scene::load(scene_path, &options)?;
+    for w in &scene.warnings {
+        tell!("warning: {w}");
+    }
+    Ok(crate::scene::World::build(scene))
+}
+
 pub mod acoustic;
 pub mod bench_acoustic;
 pub mod bench_render;

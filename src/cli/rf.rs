@@ -13,7 +13,7 @@ use crate::rf::output::{
 };
 use crate::rf::plot::{PlotExtras, db_range, footprints, write_best_server_png, write_coverage_png};
 use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
-use crate::scene::{self, LoadOptions, World};
+use crate::scene::World;
 
 fn parse_xy(s: &str) -> Result<[f64; 2], String> {
     let v: Vec<f64> = s
@@ -161,12 +161,24 @@ impl RfArgs {
     }
 }
 
-fn load_world(scene_path: &std::path::Path, materials: &[PathBuf]) -> anyhow::Result<World> {
-    let scene = scene::load(scene_path, &LoadOptions { materials_files: materials.to_vec() })?;
-    for w in &scene.warnings {
-        tell!("warning: {w}");
-    }
-    Ok(World::build(scene))
+/// The map's one-line summary: grid, cells reached, rays and time.
+pub fn map_line(
+    scene_label: &str,
+    config: &RfConfig,
+    s: &crate::rf::output::Summary,
+    seconds: f64,
+) -> String {
+    format!(
+        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s",
+        scene_label,
+        config.grid.nx,
+        config.grid.ny,
+        crate::io::tidy(config.grid.cell_m, 6),
+        crate::io::tidy(config.grid.height_m, 6),
+        s.map.reached_cells,
+        config.rays,
+        seconds
+    )
 }
 
 /// A progress bar on a terminal, a hidden one otherwise.
@@ -277,7 +289,7 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         "--png-width {}: must be between {MIN_PNG_WIDTH} and {MAX_PNG_WIDTH} pixels",
         args.png_width
     );
-    let world = load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials)?;
     let scene_name = args.scene.display().to_string();
     let config =
         RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
@@ -303,18 +315,7 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let s = write_outputs(&args.out, &scene_name, &world, &config, &result, args.png_width)?;
     let (csv, png, json) =
         (args.out.join("coverage.csv"), args.out.join("coverage.png"), args.out.join("coverage.json"));
-    say!(
-        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s ({:.2} Mrays/s)",
-        scene_name,
-        config.grid.nx,
-        config.grid.ny,
-        crate::io::tidy(config.grid.cell_m, 6),
-        crate::io::tidy(config.grid.height_m, 6),
-        s.map.reached_cells,
-        config.rays,
-        result.seconds,
-        s.rays_per_second / 1e6
-    );
+    say!("{} ({:.2} Mrays/s)", map_line(&scene_name, &config, &s, result.seconds), s.rays_per_second / 1e6);
     for r in &s.receivers {
         let f = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.2} dB"));
         say!(
@@ -391,7 +392,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         "--repeat {}: must be between 1 and 1000",
         args.repeat
     );
-    let world = load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials)?;
     let name = args.scene.display().to_string();
     let overrides = Overrides {
         rays: Some(args.rays),

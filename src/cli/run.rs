@@ -18,7 +18,7 @@ use clap::{Args, Parser, ValueEnum};
 use image::{GenericImage, RgbImage};
 
 use crate::dist::Cluster;
-use crate::scene::{self, LoadOptions, World};
+use crate::scene::World;
 
 /// One part of `propsim run`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -293,12 +293,8 @@ impl Written {
 pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     // Load once up front: a bad scene fails before any work, with the usual one-line error.
-    let scene = scene::load(&args.scene, &LoadOptions { materials_files: args.materials.clone() })?;
-    for w in &scene.warnings {
-        tell!("warning: {w}");
-    }
+    let world = super::load_world(&args.scene, &args.materials)?;
     let scene_label = args.scene.display().to_string();
-    let world = World::build(scene);
     super::acoustic::warn_internal_sheets(&world, &scene_label);
     let desc = world.scene.desc.clone();
     if cluster.is_root() {
@@ -577,17 +573,6 @@ fn run_rf(
     bar.finish_and_clear();
     let Some(result) = result else { return Ok(Vec::new()) };
     let s = super::rf::write_outputs(&rargs.out, scene_label, world, config, &result, rargs.png_width)?;
-    say!(
-        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s; wrote {} files",
-        scene_label,
-        config.grid.nx,
-        config.grid.ny,
-        crate::io::tidy(config.grid.cell_m, 6),
-        crate::io::tidy(config.grid.height_m, 6),
-        s.map.reached_cells,
-        config.rays,
-        result.seconds,
-        s.outputs.len()
-    );
+    say!("{}; wrote {} files", super::rf::map_line(scene_label, config, &s, result.seconds), s.outputs.len());
     Ok(s.outputs.iter().map(PathBuf::from).collect())
 }
