@@ -76,6 +76,15 @@ pub trait Propagation: Sync {
         path_m: f32,
         rng: &mut Rng64,
     ) -> Bounce;
+    /// For a flight's last segment (no surface interaction follows it): how far along `ray`
+    /// its deposits can reach, or `None` (the default) to trace it to its hit like any other.
+    /// With `Some(reach)` the launcher asks only whether `(0, reach]` is clear, the cheaper
+    /// occlusion query, skipped when `reach <= 0`, and calls [`Propagation::segment`] with
+    /// `length_m = reach` when it is clear and 0 when it is not. The radio payload deposits
+    /// only where a ray crosses the coverage plane, so its last segment needs no closest hit.
+    fn last_segment_reach(&self, _payload: &Self::Payload, _ray: &Ray) -> Option<f32> {
+        None
+    }
 }
 
 /// Launch settings.
@@ -109,6 +118,7 @@ struct Flight<P> {
 }
 
 /// Ray `index`'s flight as it leaves the source.
+#[inline(always)]
 fn depart<P: Propagation>(prop: &P, launch: &Launch, rotation: f32, index: u64) -> Flight<P::Payload> {
     let mut rng = stream(launch.seed, launch.domain, index);
     let dir = match launch.pattern {
@@ -178,6 +188,9 @@ fn trace_block<P: Propagation>(
             let mut flight = depart(prop, launch, rotation, i);
             loop {
                 let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
+                if last_segment(accel, prop, launch, accum, &flight, &ray) {
+                    break;
+                }
                 let hit = accel.closest_hit(&ray);
                 if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref()) {
                     break;
@@ -191,6 +204,11 @@ fn trace_block<P: Propagation>(
     let mut rays: Vec<Ray> = Vec::with_capacity(flights.len());
     let mut hits: Vec<Option<Hit>> = Vec::with_capacity(flights.len());
     while !flights.is_empty() {
+        // Last segments with a known reach end here, with an occlusion query each.
+        flights.retain(|f| {
+            let ray = Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray };
+            !last_segment(accel, prop, launch, accum, f, &ray)
+        });
         rays.clear();
         rays.extend(flights.iter().map(|f| Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray }));
         // Every entry is overwritten by the query: only new ones need a value.
@@ -208,6 +226,28 @@ fn trace_block<P: Propagation>(
         }
         flights.truncate(kept);
     }
+}
+
+/// `f`'s last segment along `ray` when the propagation knows how far its deposits reach
+/// ([`Propagation::last_segment_reach`]): deposited after an occlusion query instead of a
+/// closest hit. True if it was (the flight is over); false if `ray` must be traced as usual.
+#[inline(always)]
+fn last_segment<P: Propagation>(
+    accel: &Accel,
+    prop: &P,
+    launch: &Launch,
+    accum: &mut P::Accum,
+    f: &Flight<P::Payload>,
+    ray: &Ray,
+) -> bool {
+    if f.reflections < launch.max_reflections {
+        return false;
+    }
+    let Some(reach) = prop.last_segment_reach(&f.payload, ray) else { return false };
+    let reach = reach.min(ray.t_max);
+    let clear = reach > 0.0 && !accel.occluded(&Ray { t_max: reach, ..*ray });
+    prop.segment(accum, &f.payload, ray, if clear { reach } else { 0.0 }, f.path_m, f.reflections);
+    true
 }
 
 /// One bounce of `flight` along `ray`, which met `hit` (or nothing): the segment's deposits,

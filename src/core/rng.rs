@@ -18,6 +18,7 @@ pub fn mix64(mut z: u64) -> u64 {
 
 /// The generator for work item `index` (a pixel, a ray, a cell) of a run seeded by `seed`.
 /// `domain` separates independent uses of the same index (e.g. camera vs. light sampling).
+#[inline]
 pub fn stream(seed: u64, domain: u64, index: u64) -> Rng64 {
     let key = mix64(mix64(mix64(seed) ^ domain.wrapping_mul(0xD6E8_FEB8_6659_FD93)) ^ index);
     let lo = mix64(key);

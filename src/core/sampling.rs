@@ -72,6 +72,7 @@ pub fn uniform_triangle(u: Vec2) -> Vec2 {
 /// Direction `i` of `n` on the spherical Fibonacci lattice: near-uniform, deterministic,
 /// with equal solid angle `4 pi / n` per point (Gonzalez 2010; Keinert et al. 2015).
 /// `offset` in `[0,1)` rotates the lattice about z, for randomised repetitions.
+#[inline]
 pub fn fibonacci_sphere(i: usize, n: usize, offset: f32) -> Vec3 {
     const GOLDEN_ANGLE_TURNS: f64 = 0.381_966_011_250_105_1; // 2 - phi
     let z = 1.0 - (2.0 * i as f64 + 1.0) / n as f64;

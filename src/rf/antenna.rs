@@ -42,6 +42,7 @@ pub enum Antenna {
 
 impl Antenna {
     /// Power gain in the (unit) direction `dir`, linear.
+    #[inline]
     pub fn gain(&self, dir: DVec3) -> f64 {
         match *self {
             Antenna::Isotropic { .. } => 1.0,
@@ -59,6 +60,7 @@ impl Antenna {
 
     /// Unit polarisation vector of the field radiated in the (unit) direction `dir`,
     /// perpendicular to `dir`.
+    #[inline]
     pub fn polarization(&self, dir: DVec3) -> DVec3 {
         let reference = match *self {
             Antenna::Isotropic { polarization: Polarization::Vertical } => DVec3::Z,

@@ -77,7 +77,7 @@ impl Segment {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn lookup(&self, c: f64) -> [Complex; 4] {
         // Samples j..j+3 around x (shifted inwards at the ends), u = x - j in [0, 3].
         let x = ((c - self.c0) * self.scale).clamp(0.0, self.intervals as f64);
@@ -122,7 +122,7 @@ impl Table {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn lookup(&self, cos_theta: f64) -> Coefficients {
         let c = cos_theta.clamp(0.0, 1.0);
         let v = if c >= GRAZING_SPLIT {
@@ -175,7 +175,7 @@ impl CoefficientTable {
 
     /// The interpolated coefficients of `surface` at `cos_theta` (as
     /// `SurfacePhysics::exact_coefficients`); `None` when the surface has no radio data.
-    #[inline]
+    #[inline(always)]
     pub fn coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
         let t = (*self.of_surface.get(surface as usize)?)?;
         Some(self.tables[t as usize].lookup(cos_theta))

@@ -124,6 +124,22 @@ impl CoverageAccumulator {
         Some((cell as u32, (v * FIXED_SCALE).round() as u64))
     }
 
+    /// How far along the unit `dir` from `origin` a segment can deposit (see
+    /// [`Self::crossing`]): the distance to its crossing of the grid plane when that lands in
+    /// a cell, else 0. A segment of at least this length deposits what an endless one would.
+    #[inline]
+    pub fn reach(&self, origin: [f64; 3], dir: [f64; 3]) -> f64 {
+        let dz = dir[2];
+        if dz == 0.0 {
+            return 0.0;
+        }
+        let t = (self.spec.height_m - origin[2]) / dz;
+        if !(t > 0.0) || self.spec.cell_of(origin[0] + t * dir[0], origin[1] + t * dir[1]).is_none() {
+            return 0.0;
+        }
+        t
+    }
+
     /// Records a segment (see [`Self::crossing`]) at once, with atomic adds.
     #[inline]
     pub fn record(&self, origin: [f64; 3], dir: [f64; 3], length: f64, weight: f64) {

@@ -172,7 +172,7 @@ impl SurfacePhysics {
 
     /// Reflection coefficients (TE, TM) on `surface` at `cos_theta`, and the transmission
     /// coefficients when walls are slabs: from the table when there is one, else exact.
-    #[inline]
+    #[inline(always)]
     pub fn coefficients(&self, surface: u32, cos_theta: f64) -> Option<Coefficients> {
         match &self.table {
             Some(t) => t.coefficients(surface, cos_theta),
@@ -242,11 +242,13 @@ impl Propagation for RadioPropagation<'_> {
         self.grid.absorb(&other.crossings);
     }
 
+    #[inline(always)]
     fn emit(&self, _ray_index: u64, dir: Vec3) -> FieldVec {
         let d = dir.as_dvec3();
         FieldVec::real(self.antenna.polarization(d) * self.antenna.gain(d).sqrt())
     }
 
+    #[inline(always)]
     fn segment(&self, acc: &mut RadioAccum, payload: &FieldVec, ray: &Ray, length_m: f32, _: f32, _: u32) {
         acc.segments += 1;
         if let Some(c) = self.grid.crossing(
@@ -259,6 +261,20 @@ impl Propagation for RadioPropagation<'_> {
         }
     }
 
+    /// A last segment deposits only where it crosses the grid plane: it matters up to that
+    /// crossing (rounded up to `f32`, so that [`CoverageAccumulator::crossing`] still finds
+    /// it), and not at all when the crossing misses the grid.
+    #[inline(always)]
+    fn last_segment_reach(&self, payload: &FieldVec, ray: &Ray) -> Option<f32> {
+        if payload.power() <= 0.0 {
+            return Some(0.0);
+        }
+        let t = self.grid.reach(ray.origin.as_dvec3().to_array(), ray.dir.as_dvec3().to_array());
+        let r = t as f32;
+        Some(if f64::from(r) < t { r.next_up() } else { r })
+    }
+
+    #[inline(always)]
     fn interact(
         &self,
         _: &mut RadioAccum,
@@ -294,6 +310,7 @@ pub struct Interacted {
 /// `surface` (unit normal `n`, either side); the branch is drawn in proportion to the powers
 /// and weighted by `1 / sqrt(q)` (docs/radio.md, secs. 2 and 4). `uniform` is called only for
 /// a choice (never on a specular opaque surface); `None`: the ray stops.
+#[inline(always)]
 pub fn interaction(
     physics: &SurfacePhysics,
     surface: u32,
@@ -488,6 +505,7 @@ pub enum Branch {
 }
 
 /// A uniform `f64` in `[0, 1)` with 53 random bits.
+#[inline]
 fn unit_f64(rng: &mut Rng64) -> f64 {
     (rng.next_u64() >> 11) as f64 * (1.0 / 9_007_199_254_740_992.0)
 }
@@ -499,6 +517,7 @@ fn unit_f64(rng: &mut Rng64) -> f64 {
 /// `q_r (p_r / q_r) + q_t (p_t / q_t) = p_r + p_t` (docs/radio.md, sec. 2). The carried power
 /// after the choice is `p_r + p_t` on either branch, at most the incident power (a passive
 /// slab), so weights never grow. `None` when both branches carry less than the cut-off.
+#[inline]
 pub fn choose_branch(p_r: f64, p_t: f64, u: f64) -> Option<(Branch, f64)> {
     let total = p_r + p_t;
     // (NaN fails this test too.)
