@@ -7,6 +7,10 @@
 //! order, so the result is the same for any thread count. Accumulators that must also be
 //! independent of how blocks are grouped (e.g. across MPI ranks) should add in fixed point.
 
+use std::collections::BTreeMap;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Mutex, PoisonError};
+
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
@@ -300,31 +304,79 @@ pub fn launch_share<P: Propagation>(
     share: Share,
     progress: &(dyn Fn(u64) + Sync),
 ) -> P::Accum {
-    // Blocks run in parallel in groups; each group's results are merged in block order before
-    // the next group starts, which bounds memory to a group's accumulators. Sixteen blocks a
-    // thread keep the threads' idle time at each group's end small (with four, 8 % of the
-    // specular shoebox's 2-thread time went to waiting for a group's last block).
-    let group = (rayon::current_num_threads() * 16).max(1);
+    // Each worker thread takes the next block in order and hands its accumulator to the
+    // merge queue, which adds blocks in block order as soon as they are ready: no thread waits
+    // for a group's last block, and whoever completes the next block in order merges.
     let offset = lattice_rotation(launch);
-    let blocks: Vec<u64> = share.units(launch.rays.div_ceil(LAUNCH_BLOCK as u64)).collect();
-    let mut total = prop.new_accum();
-    for chunk in blocks.chunks(group) {
-        let per_block: Vec<P::Accum> = chunk
-            .par_iter()
-            .map(|&b| {
-                let mut acc = prop.new_accum();
-                let first = b * LAUNCH_BLOCK as u64;
-                let last = (first + LAUNCH_BLOCK as u64).min(launch.rays);
-                trace_block_best(accel, prop, launch, offset, (first, last), &mut acc);
-                progress(last - first);
-                acc
-            })
-            .collect();
-        for acc in per_block {
-            prop.merge(&mut total, acc);
+    let blocks: Vec<u64> = share.units(launch.rays.div_ceil(RAYS_PER_BLOCK)).collect();
+    let next_block = AtomicUsize::new(0);
+    let queue = Mutex::new(MergeQueue { pending: BTreeMap::new(), next: 0, merging: false });
+    let total = Mutex::new(prop.new_accum());
+    let workers = rayon::current_num_threads().clamp(1, blocks.len().max(1));
+    (0..workers).into_par_iter().for_each(|_| {
+        loop {
+            let k = next_block.fetch_add(1, Ordering::Relaxed);
+            let Some(&b) = blocks.get(k) else { break };
+            let mut acc = prop.new_accum();
+            let first = b * RAYS_PER_BLOCK;
+            let last = (first + RAYS_PER_BLOCK).min(launch.rays);
+            trace_block_best(accel, prop, launch, offset, (first, last), &mut acc);
+            progress(last - first);
+            merge_in_order(prop, &queue, &total, k, acc);
         }
+    });
+    total.into_inner().unwrap_or_else(PoisonError::into_inner)
+}
+
+/// [`LAUNCH_BLOCK`] as the ray-index type.
+const RAYS_PER_BLOCK: u64 = LAUNCH_BLOCK as u64;
+
+/// Finished blocks' accumulators waiting for their turn to be merged.
+struct MergeQueue<A> {
+    /// By position in the share's block list.
+    pending: BTreeMap<usize, A>,
+    /// The position merged next.
+    next: usize,
+    /// A thread is merging: the others only leave their blocks here.
+    merging: bool,
+}
+
+/// Leaves block `k`'s accumulator in `queue`; unless another thread is merging, merges every
+/// block that is next in order into `total` (outside the queue's lock), until none is ready.
+/// One merger at a time, taking runs in order, so blocks are merged in block order.
+fn merge_in_order<P: Propagation>(
+    prop: &P,
+    queue: &Mutex<MergeQueue<P::Accum>>,
+    total: &Mutex<P::Accum>,
+    k: usize,
+    acc: P::Accum,
+) {
+    let lock = || queue.lock().unwrap_or_else(PoisonError::into_inner);
+    let mut guard = lock();
+    guard.pending.insert(k, acc);
+    if guard.merging {
+        return;
     }
-    total
+    guard.merging = true;
+    loop {
+        let q = &mut *guard;
+        let mut ready = Vec::new();
+        while let Some(a) = q.pending.remove(&q.next) {
+            ready.push(a);
+            q.next += 1;
+        }
+        if ready.is_empty() {
+            q.merging = false;
+            return;
+        }
+        drop(guard);
+        let mut t = total.lock().unwrap_or_else(PoisonError::into_inner);
+        for a in ready {
+            prop.merge(&mut t, a);
+        }
+        drop(t);
+        guard = lock();
+    }
 }
 
 #[cfg(test)]
