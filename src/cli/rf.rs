@@ -201,7 +201,6 @@ pub fn write_outputs<'a>(
     let csv = out.join("coverage.csv");
     let png = out.join("coverage.png");
     let json = out.join("coverage.json");
-    write_coverage_csv(&csv, config, result)?;
     let feet = footprints(&world.scene.mesh, config.grid.height_m);
     let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
     let names: Vec<String> = config.transmitters.iter().map(|t| t.name.clone()).collect();
@@ -226,7 +225,13 @@ pub fn write_outputs<'a>(
     };
     // One colour scale for every map, from the combined one, so the pictures compare.
     let range = db_range(&result.coverage, &config.colour_range);
-    write_coverage_png(&png, &result.coverage, range, &extras, png_width)?;
+    // The table and the picture at once: each is mostly one thread's formatting or drawing.
+    let (table, picture) = rayon::join(
+        || write_coverage_csv(&csv, config, result),
+        || write_coverage_png(&png, &result.coverage, range, &extras, png_width),
+    );
+    table?;
+    picture?;
     let mut pictures = vec![png];
     if names.len() > 1 {
         let mut stems = std::collections::BTreeSet::new();

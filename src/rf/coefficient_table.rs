@@ -50,7 +50,18 @@ struct Segment {
     /// Intervals per unit of `cos theta`.
     scale: f64,
     intervals: usize,
-    rows: Vec<[Complex; 4]>,
+    /// Each sample's `[R_TE, R_TM, T_TE, T_TM]` as real and imaginary parts in turn, so that
+    /// the interpolation runs as vector arithmetic over the eight numbers.
+    rows: Vec<[f64; 8]>,
+}
+
+/// `[R_TE, R_TM, T_TE, T_TM]` as the eight numbers of a table row.
+fn row(v: [Complex; 4]) -> [f64; 8] {
+    let mut r = [0.0; 8];
+    for (k, c) in v.iter().enumerate() {
+        (r[2 * k], r[2 * k + 1]) = (c.re, c.im);
+    }
+    r
 }
 
 impl Segment {
@@ -60,7 +71,7 @@ impl Segment {
         let mut intervals = FIRST_INTERVALS;
         loop {
             let at = |x: f64| c0 + (c1 - c0) * x / intervals as f64;
-            let rows: Vec<[Complex; 4]> = (0..=intervals).map(|i| f(at(i as f64))).collect();
+            let rows: Vec<[f64; 8]> = (0..=intervals).map(|i| row(f(at(i as f64)))).collect();
             let segment = Self { c0, scale: intervals as f64 / (c1 - c0), intervals, rows };
             let worst = (0..intervals)
                 .flat_map(|i| [0.25, 0.5, 0.75].map(|q| at(i as f64 + q)))
@@ -86,15 +97,12 @@ impl Segment {
         let (u1, u2, u3) = (u - 1.0, u - 2.0, u - 3.0);
         let w =
             [-u1 * u2 * u3 * (1.0 / 6.0), u * u2 * u3 * 0.5, -u * u1 * u3 * 0.5, u * u1 * u2 * (1.0 / 6.0)];
-        let r = &self.rows[j..j + 4];
-        let mut out = [Complex::ZERO; 4];
-        for (k, o) in out.iter_mut().enumerate() {
-            *o = Complex::new(
-                w[0] * r[0][k].re + w[1] * r[1][k].re + w[2] * r[2][k].re + w[3] * r[3][k].re,
-                w[0] * r[0][k].im + w[1] * r[1][k].im + w[2] * r[2][k].im + w[3] * r[3][k].im,
-            );
+        let [r0, r1, r2, r3] = [&self.rows[j], &self.rows[j + 1], &self.rows[j + 2], &self.rows[j + 3]];
+        let mut v = [0.0; 8];
+        for (i, x) in v.iter_mut().enumerate() {
+            *x = w[0] * r0[i] + w[1] * r1[i] + w[2] * r2[i] + w[3] * r3[i];
         }
-        out
+        [0, 1, 2, 3].map(|k| Complex::new(v[2 * k], v[2 * k + 1]))
     }
 }
 

@@ -5,6 +5,7 @@
 
 use std::path::Path;
 
+use rayon::prelude::*;
 use serde::Serialize;
 
 use super::config::CfrSpec;
@@ -66,11 +67,12 @@ pub fn write_coverage_csv(path: &Path, config: &RfConfig, result: &RfResult) -> 
         w.write_record(CSV_COLUMNS.iter().map(|c| c.to_string()).chain(servers.iter().cloned()))?;
         let cov = &result.coverage;
         let z = format!("{:.3}", cov.spec.height_m);
-        let mut row = Vec::with_capacity(CSV_COLUMNS.len() + servers.len());
-        for i in 0..cov.spec.cells() {
+        // The rows are formatted in parallel (most of the time goes to formatting numbers),
+        // then written in order.
+        let row = |i: usize| {
+            let mut row = Vec::with_capacity(CSV_COLUMNS.len() + servers.len());
             let [x, y] = cov.spec.centre(i);
             let reached = cov.path_gain[i] > 0.0;
-            row.clear();
             row.extend([
                 format!("{x:.3}"),
                 format!("{y:.3}"),
@@ -86,6 +88,10 @@ pub fn write_coverage_csv(path: &Path, config: &RfConfig, result: &RfResult) -> 
                 }
                 row.extend(result.transmitters.iter().map(|t| db(t.power_mw * t.coverage.path_gain[i])));
             }
+            row
+        };
+        let rows: Vec<Vec<String>> = (0..cov.spec.cells()).into_par_iter().map(row).collect();
+        for row in rows {
             w.write_record(&row)?;
         }
         w.flush()?;

@@ -7,6 +7,7 @@
 use std::path::Path;
 
 use plotters::prelude::*;
+use rayon::prelude::*;
 use plotters::style::text_anchor;
 
 use super::config::ColourRange;
@@ -105,7 +106,7 @@ const EMPTY: RGBColor = RGBColor(200, 200, 200);
 fn write_map_png(
     path: &Path,
     spec: GridSpec,
-    colour: &dyn Fn(usize) -> Option<RGBColor>,
+    colour: &(dyn Fn(usize) -> Option<RGBColor> + Sync),
     legend: Option<Legend>,
     extras: &PlotExtras,
     width: u32,
@@ -143,14 +144,16 @@ fn write_map_png(
             .y_desc("y (m)")
             .label_style(("sans-serif", 13))
             .draw()?;
-        // The map, pixel by pixel.
+        // The map, pixel by pixel, from each cell's colour worked out once.
+        let cell_colour: Vec<RGBColor> =
+            (0..spec.cells()).into_par_iter().map(|c| colour(c).unwrap_or(EMPTY)).collect();
         let area = chart.plotting_area().strip_coord_spec();
         let (pw, ph) = area.dim_in_pixel();
         for py in 0..ph {
             for px in 0..pw {
                 let x = x0 + (f64::from(px) + 0.5) / f64::from(pw) * (x1 - x0);
                 let y = y1 - (f64::from(py) + 0.5) / f64::from(ph) * (y1 - y0);
-                let c = spec.cell_of(x, y).and_then(colour).unwrap_or(EMPTY);
+                let c = spec.cell_of(x, y).map_or(EMPTY, |c| cell_colour[c]);
                 area.draw_pixel((px as i32, py as i32), &c)?;
             }
         }
