@@ -574,11 +574,33 @@ impl SphereSet {
 pub struct Accel {
     pub mesh: MeshBvh,
     pub spheres: SphereSet,
+    /// Corners of a box holding every triangle and sphere (empty: lower above upper).
+    bounds: (Vec3, Vec3),
 }
 
 impl Accel {
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
-        Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres) }
+        let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        let bounds = spheres.iter().fold(mesh.bounds().unwrap_or(empty), |(lo, hi), s| {
+            (lo.min(s.aabb_min()), hi.max(s.aabb_max()))
+        });
+        Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres), bounds }
+    }
+
+    /// True when `ray` cannot meet anything: its origin is on or beyond a face of the box
+    /// that holds the scene and it moves away from that face (so no query needs to run; the
+    /// launcher's rays through a floor into the void below end this way).
+    #[inline(always)]
+    pub fn leaves_bounds(&self, ray: &Ray) -> bool {
+        let (lo, hi) = self.bounds;
+        let (o, d) = (ray.origin, ray.dir);
+        (o.x <= lo.x && d.x < 0.0)
+            || (o.y <= lo.y && d.y < 0.0)
+            || (o.z <= lo.z && d.z < 0.0)
+            || (o.x >= hi.x && d.x > 0.0)
+            || (o.y >= hi.y && d.y > 0.0)
+            || (o.z >= hi.z && d.z > 0.0)
+            || lo.x > hi.x
     }
 
     /// The closest triangle or sphere hit in `(t_min, t_max]` (inlined into the launcher's

@@ -208,7 +208,7 @@ fn trace_block<P: Propagation>(
     let mut rays: Vec<Ray> = Vec::with_capacity(flights.len());
     let mut hits: Vec<Option<Hit>> = Vec::with_capacity(flights.len());
     while !flights.is_empty() {
-        // Last segments with a known reach end here, with an occlusion query each.
+        // Last segments (see `last_segment`) end here, without the batch query.
         flights.retain(|f| {
             let ray = Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray };
             !last_segment(accel, prop, launch, accum, f, &ray)
@@ -232,9 +232,11 @@ fn trace_block<P: Propagation>(
     }
 }
 
-/// `f`'s last segment along `ray` when the propagation knows how far its deposits reach
-/// ([`Propagation::last_segment_reach`]): deposited after an occlusion query instead of a
-/// closest hit. True if it was (the flight is over); false if `ray` must be traced as usual.
+/// `f`'s segment along `ray` when it is its last, without a closest-hit query where none is
+/// needed: a ray that leaves the scene's box meets nothing, and on a segment after which no
+/// interaction may follow, a propagation that knows how far its deposits reach
+/// ([`Propagation::last_segment_reach`]) needs only an occlusion query. True if the segment
+/// was deposited (the flight is over); false if `ray` must be traced as usual.
 #[inline(always)]
 fn last_segment<P: Propagation>(
     accel: &Accel,
@@ -244,13 +246,19 @@ fn last_segment<P: Propagation>(
     f: &Flight<P::Payload>,
     ray: &Ray,
 ) -> bool {
-    if f.reflections < launch.max_reflections {
+    let leaving = accel.leaves_bounds(ray);
+    if !leaving && f.reflections < launch.max_reflections {
         return false;
     }
-    let Some(reach) = prop.last_segment_reach(&f.payload, ray) else { return false };
-    let reach = reach.min(ray.t_max);
-    let clear = reach > 0.0 && !accel.occluded(&Ray { t_max: reach, ..*ray });
-    prop.segment(accum, &f.payload, ray, if clear { reach } else { 0.0 }, f.path_m, f.reflections);
+    match prop.last_segment_reach(&f.payload, ray) {
+        Some(reach) => {
+            let reach = reach.min(ray.t_max);
+            let clear = reach > 0.0 && (leaving || !accel.occluded(&Ray { t_max: reach, ..*ray }));
+            prop.segment(accum, &f.payload, ray, if clear { reach } else { 0.0 }, f.path_m, f.reflections);
+        }
+        None if leaving => prop.segment(accum, &f.payload, ray, ray.t_max, f.path_m, f.reflections),
+        None => return false,
+    }
     true
 }
 
