@@ -201,6 +201,7 @@ pub fn write_outputs<'a>(
     let csv = out.join("coverage.csv");
     let png = out.join("coverage.png");
     let json = out.join("coverage.json");
+    let npy = out.join("coverage.npy");
     let feet = footprints(&world.scene.mesh, config.grid.height_m);
     let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
     let names: Vec<String> = config.transmitters.iter().map(|t| t.name.clone()).collect();
@@ -232,6 +233,7 @@ pub fn write_outputs<'a>(
     );
     table?;
     picture?;
+    crate::rf::output::write_npy(&npy, &result.path_gain_array())?;
     let mut pictures = vec![png];
     if names.len() > 1 {
         let mut stems = std::collections::BTreeSet::new();
@@ -271,7 +273,8 @@ pub fn write_outputs<'a>(
         pictures.push(p);
     }
     let receiver_files = write_receiver_outputs(out, config, result)?;
-    let outputs = std::iter::once(&csv)
+    let outputs = [&csv, &npy]
+        .into_iter()
         .chain(&pictures)
         .chain(std::iter::once(&json))
         .chain(&receiver_files)
@@ -333,7 +336,13 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
             f(r.grid_path_gain_db)
         );
     }
-    say!("wrote {}, {}, {}", csv.display(), png.display(), json.display());
+    say!(
+        "wrote {}, {}, {}, {}",
+        csv.display(),
+        args.out.join("coverage.npy").display(),
+        png.display(),
+        json.display()
+    );
     if config.transmitters.len() > 1 {
         say!(
             "wrote coverage_TX.png for each of {} transmitters and best_server.png in {}; coverage.csv has best_server, best_rx_power_dbm, sinr_db (noise {:.2} dBm) and rx_power_dbm_TX",
@@ -343,9 +352,9 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         );
     }
     if !config.receivers.is_empty() {
-        let cfr = if config.cfr.is_some() { ", cfr.csv" } else { "" };
+        let cfr = if config.cfr.is_some() { ", cfr.csv, cfr.npy" } else { "" };
         say!(
-            "wrote paths.csv, {} power-delay profile(s) pdp_*.png{cfr} in {}",
+            "wrote paths.csv, paths.npy, {} power-delay profile(s) pdp_*.png{cfr} in {}",
             config.receivers.len(),
             args.out.display()
         );

@@ -581,9 +581,9 @@ pub struct Accel {
 impl Accel {
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
         let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
-        let bounds = spheres.iter().fold(mesh.bounds().unwrap_or(empty), |(lo, hi), s| {
-            (lo.min(s.aabb_min()), hi.max(s.aabb_max()))
-        });
+        let bounds = spheres
+            .iter()
+            .fold(mesh.bounds().unwrap_or(empty), |(lo, hi), s| (lo.min(s.aabb_min()), hi.max(s.aabb_max())));
         Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres), bounds }
     }
 

@@ -234,6 +234,20 @@ pub struct RfResult {
 }
 
 impl RfResult {
+    /// The path gain of every transmitter over the grid, linear, shape (transmitters, ny, nx):
+    /// cell `(i, j)` (x index `i`) at `[t, j, i]`, 0 where nothing arrived; the layout of
+    /// Sionna RT's `RadioMap.path_gain`. `coverage.npy` holds it.
+    pub fn path_gain_array(&self) -> ndarray::Array3<f64> {
+        let spec = self.coverage.spec;
+        let mut a = ndarray::Array3::zeros((self.transmitters.len(), spec.ny, spec.nx));
+        for (t, tr) in self.transmitters.iter().enumerate() {
+            for (cell, &g) in tr.coverage.path_gain.iter().enumerate() {
+                a[[t, cell / spec.nx, cell % spec.nx]] = g;
+            }
+        }
+        a
+    }
+
     /// The best server of `cell`: the transmitter with the highest received power there
     /// (the first one on a tie), `None` where no transmitter reaches the cell.
     pub fn best_server(&self, cell: usize, noise: &NoiseSpec) -> Option<BestServer> {

@@ -415,6 +415,82 @@ pub fn write_cfr_csv(
     })
 }
 
+/// Writes `array` to `path` as a `.npy` file (numpy's format, little-endian, C order).
+pub fn write_npy<A, D>(path: &Path, array: &ndarray::ArrayRef<A, D>) -> anyhow::Result<()>
+where
+    A: ndarray_npy::WritableElement,
+    D: ndarray::Dimension,
+{
+    use ndarray_npy::WriteNpyExt;
+    crate::io::atomic::write_atomically(path, |out| {
+        array.write_npy(out).map_err(|e| anyhow::anyhow!("{e}"))?;
+        Ok(())
+    })
+}
+
+/// The columns of `paths.npy`: `paths.csv`'s numeric columns, the transmitter and receiver
+/// by index (in the order of the config), a zero-amplitude path's gain as NaN.
+pub const PATHS_NPY_COLUMNS: [&str; 11] = [
+    "transmitter",
+    "receiver",
+    "path",
+    "delay_s",
+    "amplitude_re",
+    "amplitude_im",
+    "gain_db",
+    "aod_azimuth_deg",
+    "aod_zenith_deg",
+    "aoa_azimuth_deg",
+    "aoa_zenith_deg",
+];
+
+/// `paths.csv` as numbers: one row per path, [`PATHS_NPY_COLUMNS`], float64, in the rows'
+/// order of `paths.csv`. `paths.npy` holds it.
+pub fn paths_array(config: &RfConfig, result: &RfResult) -> ndarray::Array2<f64> {
+    let mut rows: Vec<[f64; 11]> = Vec::new();
+    for (t, tr) in result.transmitters.iter().enumerate() {
+        for (r, ps) in tr.receivers.iter().enumerate().take(config.receivers.len()) {
+            for (k, p) in paths_by_delay(&ps.records).into_iter().enumerate() {
+                let (aod_az, aod_ze) = azimuth_zenith_deg(p.departure);
+                let (aoa_az, aoa_ze) = azimuth_zenith_deg(p.arrival);
+                let g = p.gain();
+                let gain_db = if g > 0.0 { 10.0 * g.log10() } else { f64::NAN };
+                rows.push([
+                    t as f64,
+                    r as f64,
+                    k as f64,
+                    p.delay_s,
+                    p.amplitude.re,
+                    p.amplitude.im,
+                    gain_db,
+                    aod_az,
+                    aod_ze,
+                    aoa_az,
+                    aoa_ze,
+                ]);
+            }
+        }
+    }
+    let n = rows.len();
+    ndarray::Array2::from_shape_vec((n, PATHS_NPY_COLUMNS.len()), rows.into_iter().flatten().collect())
+        .unwrap_or_else(|_| ndarray::Array2::zeros((0, PATHS_NPY_COLUMNS.len())))
+}
+
+/// The channel frequency response `H(f)` of every (transmitter, receiver) pair at the
+/// `spec.points` frequencies of `cfr.csv`, complex, shape (transmitters, receivers, points).
+/// `cfr.npy` holds it.
+pub fn cfr_array(
+    config: &RfConfig,
+    result: &RfResult,
+    spec: &CfrSpec,
+) -> ndarray::Array3<num_complex::Complex64> {
+    let shape = (result.transmitters.len(), config.receivers.len(), spec.points);
+    ndarray::Array3::from_shape_fn(shape, |(t, r, i)| {
+        let h = frequency_response(&result.transmitters[t].receivers[r].records, spec.offset_hz(i));
+        num_complex::Complex64::new(h.re, h.im)
+    })
+}
+
 /// Writes the point receivers' outputs into `out`: `paths.csv`, `pdp_RECEIVER.png` for each
 /// receiver (every transmitter's paths on one chart), and `cfr.csv` when the config asks for
 /// it. Nothing when there is no receiver. Returns the files written.
@@ -430,6 +506,9 @@ pub fn write_receiver_outputs(
     let paths = out.join("paths.csv");
     write_paths_csv(&paths, config, result)?;
     written.push(paths);
+    let paths_npy = out.join("paths.npy");
+    write_npy(&paths_npy, &paths_array(config, result))?;
+    written.push(paths_npy);
     let mut stems = std::collections::BTreeSet::new();
     for (i, r) in config.receivers.iter().enumerate() {
         let mut stem = crate::io::file_stem(&r.name);
@@ -459,6 +538,9 @@ pub fn write_receiver_outputs(
         let cfr = out.join("cfr.csv");
         write_cfr_csv(&cfr, config, result, spec)?;
         written.push(cfr);
+        let cfr_npy = out.join("cfr.npy");
+        write_npy(&cfr_npy, &cfr_array(config, result, spec))?;
+        written.push(cfr_npy);
     }
     Ok(written)
 }

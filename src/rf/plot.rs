@@ -7,8 +7,8 @@
 use std::path::Path;
 
 use plotters::prelude::*;
-use rayon::prelude::*;
 use plotters::style::text_anchor;
+use rayon::prelude::*;
 
 use super::config::ColourRange;
 use super::coverage::{Coverage, GridSpec};

@@ -65,3 +65,39 @@ f 2 3 7 6
 f 3 4 8 7
 f 4 1 5 8
 ";
+
+/// A `.npy` file read without the writer's crate (numpy's format 1.0-3.0): the dtype string
+/// (`<f8`, `<c16`), the shape, and the raw little-endian data in C order.
+pub fn read_npy(path: &Path) -> (String, Vec<usize>, Vec<u8>) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    assert_eq!(&bytes[..6], b"\x93NUMPY", "{}: not a .npy file", path.display());
+    let (len, start) = match bytes[6] {
+        1 => (usize::from(u16::from_le_bytes([bytes[8], bytes[9]])), 10),
+        _ => (u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize, 12),
+    };
+    let header = std::str::from_utf8(&bytes[start..start + len]).unwrap();
+    assert!(header.contains("'fortran_order': False"), "{header}");
+    let field = |key: &str| {
+        let at = header.find(key).unwrap_or_else(|| panic!("no {key} in {header}")) + key.len();
+        header[at..].trim_start_matches([':', ' ']).to_string()
+    };
+    let descr = field("'descr'");
+    let descr = descr.trim_start_matches('\'').split('\'').next().unwrap().to_string();
+    let shape = field("'shape'");
+    let shape: Vec<usize> = shape[1..shape.find(')').unwrap()]
+        .split(',')
+        .map(str::trim)
+        .filter(|s| !s.is_empty())
+        .map(|s| s.parse().unwrap())
+        .collect();
+    (descr, shape, bytes[start + len..].to_vec())
+}
+
+/// The float64 data of a `.npy` file of dtype `<f8`, with its shape.
+pub fn read_npy_f64(path: &Path) -> (Vec<usize>, Vec<f64>) {
+    let (descr, shape, data) = read_npy(path);
+    assert_eq!(descr, "<f8", "{}", path.display());
+    let values: Vec<f64> = data.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(values.len(), shape.iter().product::<usize>(), "{}", path.display());
+    (shape, values)
+}
