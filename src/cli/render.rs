@@ -9,7 +9,7 @@ use glam::Vec3;
 use crate::dist::Cluster;
 use crate::render::film::ImageFormat;
 use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render_on};
-use crate::scene::{self, LoadOptions, World};
+use crate::scene::{self, World};
 
 /// The scene `propsim render` uses when given none.
 pub const DEFAULT_RENDER_SCENE: &str = "builtin:cornell_box_classic";
@@ -62,6 +62,8 @@ pub struct RenderArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -157,7 +159,7 @@ pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.output, false)?;
     }
-    let options = LoadOptions { materials_files: args.materials.clone() };
+    let options = super::load_options(&args.materials, &args.model);
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
         tell!("warning: {w}");
