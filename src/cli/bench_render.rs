@@ -44,6 +44,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         integrator,
         seed: 0,
         background: None,
+        display: Default::default(),
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(

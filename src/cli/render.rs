@@ -7,7 +7,7 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::dist::Cluster;
-use crate::render::film::ImageFormat;
+use crate::render::film::{Display, ImageFormat};
 use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render_on};
 use crate::scene::{self, World};
 
@@ -26,7 +26,8 @@ pub struct RenderArgs {
     /// Scene file (.toml), bare OBJ (with its MTL), or builtin:NAME.
     #[arg(default_value = DEFAULT_RENDER_SCENE)]
     pub scene: PathBuf,
-    /// Output image; the extension picks the format: .png (8-bit sRGB) or .exr (linear float).
+    /// Output image; the extension picks the format: .png (8-bit sRGB, exposed and tone
+    /// mapped) or .exr (linear float radiance, untouched by --exposure and --tone-map).
     #[arg(short = 'o', long = "output", default_value = "out/render.png")]
     pub output: PathBuf,
     /// Image width in pixels (default: the scene's, else 640).
@@ -59,6 +60,13 @@ pub struct RenderArgs {
     /// Vertical field of view, degrees.
     #[arg(long = "fov-deg")]
     pub fov_deg: Option<f32>,
+    /// PNG exposure in stops: radiance x 2^EV before the tone map (default: the scene's, else
+    /// 0). EXR output stays linear.
+    #[arg(long = "exposure", value_name = "EV")]
+    pub exposure_ev: Option<f32>,
+    /// PNG tone map: aces (filmic, the default), reinhard (on luminance) or none (clip at 1).
+    #[arg(long = "tone-map", value_name = "aces|reinhard|none")]
+    pub tone_map: Option<String>,
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
@@ -73,6 +81,13 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
     let integrator: IntegratorKind =
         integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
     let d = RenderSettings::default();
+    let tone_map = match args.tone_map.clone().or(desc.tone_map) {
+        Some(name) => name.parse().map_err(|e: String| anyhow!("--tone-map: {e}"))?,
+        None => d.display.tone_map,
+    };
+    let exposure_ev = args.exposure_ev.or(desc.exposure_ev).unwrap_or(d.display.exposure_ev);
+    let display = Display { exposure_ev, tone_map };
+    display.validate().map_err(|e| anyhow!("--exposure: {e}"))?;
     let s = RenderSettings {
         width: args.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
         height: args.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
@@ -81,6 +96,7 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
         integrator,
         seed: args.seed,
         background: None,
+        display,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
@@ -148,7 +164,7 @@ pub fn execute(
     bar.finish_and_clear();
     // Only rank 0 holds the image and writes.
     let Some(out) = out else { return Ok(false) };
-    out.film.write(output)?;
+    out.film.write_with(output, &s.display)?;
     say!("{}", summary(output, s, &out));
     Ok(true)
 }

@@ -114,6 +114,8 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Radiance of rays that leave the scene; `None` keeps the scene's (default black).
     pub background: Option<Vec3>,
+    /// How a PNG shows the image (exposure and tone map); an EXR stays linear.
+    pub display: film::Display,
 }
 
 impl Default for RenderSettings {
@@ -126,6 +128,7 @@ impl Default for RenderSettings {
             integrator: IntegratorKind::Path,
             seed: 0,
             background: None,
+            display: film::Display::default(),
         }
     }
 }
@@ -149,7 +152,7 @@ impl RenderSettings {
         {
             return Err(format!("background {b} must be finite and non-negative"));
         }
-        Ok(())
+        self.display.validate()
     }
 }
 

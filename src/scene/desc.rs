@@ -74,6 +74,10 @@ pub struct RenderDesc {
     pub max_depth: Option<u32>,
     pub integrator: Option<String>,
     pub background: Option<Point3>,
+    /// PNG exposure, stops (radiance x 2^EV before the tone map); EXR stays linear.
+    pub exposure_ev: Option<f32>,
+    /// PNG tone map: "aces" (default), "reinhard" or "none".
+    pub tone_map: Option<String>,
 }
 
 /// A point light; `intensity` in W/sr per RGB channel.

@@ -1,0 +1,110 @@
+//! What a render looks like: the PNG's exposure and tone map (EXR untouched), the indirect
+//! clamp, and the automatic camera inside a closed room.
+
+mod common;
+
+use std::path::Path;
+
+
+fn propsim_in(dir: &Path, args: &[&str]) -> (bool, String, String) {
+    common::propsim_in(Some(dir), args)
+}
+
+/// A scene whose camera sees only the background, of radiance `grey` in every channel.
+fn constant_scene(dir: &Path, grey: f32) -> String {
+    std::fs::write(dir.join("t.obj"), "v -10 0 0\nv -10 1 0\nv -10 0 1\nusemtl concrete\nf 1 2 3\n").unwrap();
+    let name = format!("grey{grey}.toml");
+    std::fs::write(
+        dir.join(&name),
+        format!(
+            "obj = \"t.obj\"\n[camera]\neye = [0.0, 0.0, 0.0]\ntarget = [1.0, 0.0, 0.0]\n\
+             [render]\nbackground = [{grey}, {grey}, {grey}]\n"
+        ),
+    )
+    .unwrap();
+    name
+}
+
+/// The PNG byte of every pixel of `scene` rendered with `extra` flags (all pixels equal).
+fn png_value(dir: &Path, scene: &str, extra: &[&str]) -> u8 {
+    let mut args = vec!["render", scene, "-o", "c.png", "--width", "4", "--height", "4", "--spp", "1"];
+    args.extend(extra);
+    let (ok, _, err) = propsim_in(dir, &args);
+    assert!(ok, "{args:?}: {err}");
+    let img = image::open(dir.join("c.png")).unwrap().to_rgb8();
+    let v = img.get_pixel(0, 0).0[0];
+    assert!(img.pixels().all(|p| p.0 == [v, v, v]), "{args:?}: not constant");
+    v
+}
+
+fn srgb8(x: f32) -> u8 {
+    let x = x.clamp(0.0, 1.0);
+    let s = if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 };
+    (s * 255.0 + 0.5) as u8
+}
+
+fn aces(x: f32) -> f32 {
+    (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+}
+
+#[test]
+fn png_of_a_constant_radiance_maps_as_the_formulas_say() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let s = constant_scene(d, 0.3);
+    // ACES filmic is the default.
+    assert_eq!(png_value(d, &s, &[]), srgb8(aces(0.3)));
+    assert_eq!(png_value(d, &s, &["--tone-map", "aces"]), srgb8(aces(0.3)));
+    assert_eq!(png_value(d, &s, &["--tone-map", "reinhard"]), srgb8(0.3 / 1.3));
+    assert_eq!(png_value(d, &s, &["--tone-map", "none"]), srgb8(0.3));
+    // +1 EV doubles what the tone map receives; -1 EV halves it.
+    assert_eq!(png_value(d, &s, &["--exposure", "1"]), srgb8(aces(0.6)));
+    assert_eq!(png_value(d, &s, &["--exposure", "-1", "--tone-map", "none"]), srgb8(0.15));
+    let doubled = constant_scene(d, 0.6);
+    assert_eq!(
+        png_value(d, &s, &["--exposure", "1", "--tone-map", "none"]),
+        png_value(d, &doubled, &["--tone-map", "none"])
+    );
+    // The scene's [render] keys set them; the flags override.
+    let keyed = d.join("keyed.toml");
+    let text = std::fs::read_to_string(d.join(&s)).unwrap();
+    std::fs::write(&keyed, format!("{text}exposure_ev = 1.0\ntone_map = \"reinhard\"\n")).unwrap();
+    assert_eq!(png_value(d, "keyed.toml", &[]), srgb8(0.6 / 1.6));
+    assert_eq!(png_value(d, "keyed.toml", &["--exposure", "0", "--tone-map", "none"]), srgb8(0.3));
+}
+
+#[test]
+fn exr_stays_linear_whatever_the_exposure_and_tone_map() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let common = ["builtin:cornell_box_classic", "--width", "24", "--height", "24", "--spp", "4"];
+    let mut outputs = Vec::new();
+    for (i, extra) in [&[][..], &["--exposure", "3", "--tone-map", "reinhard"][..], &["--tone-map", "none"][..]]
+        .iter()
+        .enumerate()
+    {
+        let name = format!("i{i}.exr");
+        let mut args = vec!["render", "-o", &name];
+        args.extend(common);
+        args.extend(*extra);
+        let (ok, _, err) = propsim_in(d, &args);
+        assert!(ok, "{args:?}: {err}");
+        outputs.push(std::fs::read(d.join(&name)).unwrap());
+    }
+    assert!(outputs.iter().all(|o| *o == outputs[0]), "EXR bytes differ");
+}
+
+#[test]
+fn bad_exposures_and_tone_maps_fail_with_one_line() {
+    for (flag, value, needle) in [
+        ("--exposure", "nan", "exposure"),
+        ("--exposure", "99", "exposure"),
+        ("--tone-map", "filmic", "--tone-map"),
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let args = ["render", "--width", "8", "--height", "8", flag, value];
+        let (ok, _, err) = propsim_in(dir.path(), &args);
+        common::check_one_line_error(&args, ok, &err, &[needle]);
+        assert!(!dir.path().join("out").exists(), "{args:?}: nothing written on error");
+    }
+}
