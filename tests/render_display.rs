@@ -5,6 +5,9 @@ mod common;
 
 use std::path::Path;
 
+use propsim::render::film::luminance;
+use propsim::render::{Film, RenderScene, RenderSettings, render, scene_camera};
+use propsim::scene::{self, LoadOptions, World};
 
 fn propsim_in(dir: &Path, args: &[&str]) -> (bool, String, String) {
     common::propsim_in(Some(dir), args)
@@ -95,11 +98,13 @@ fn exr_stays_linear_whatever_the_exposure_and_tone_map() {
 }
 
 #[test]
-fn bad_exposures_and_tone_maps_fail_with_one_line() {
+fn bad_exposures_tone_maps_and_clamps_fail_with_one_line() {
     for (flag, value, needle) in [
         ("--exposure", "nan", "exposure"),
         ("--exposure", "99", "exposure"),
         ("--tone-map", "filmic", "--tone-map"),
+        ("--clamp-indirect", "-1", "clamp"),
+        ("--clamp-indirect", "inf", "clamp"),
     ] {
         let dir = tempfile::tempdir().unwrap();
         let args = ["render", "--width", "8", "--height", "8", flag, value];
@@ -107,4 +112,37 @@ fn bad_exposures_and_tone_maps_fail_with_one_line() {
         common::check_one_line_error(&args, ok, &err, &[needle]);
         assert!(!dir.path().join("out").exists(), "{args:?}: nothing written on error");
     }
+}
+
+fn cornell() -> World {
+    World::build(scene::load(Path::new("builtin:cornell_box_classic"), &LoadOptions::default()).unwrap())
+}
+
+fn go(world: &World, s: &RenderSettings) -> Film {
+    let scene = RenderScene::new(world);
+    let cam = scene_camera(world, 1.0).unwrap();
+    render(&scene, &cam, s, &|_| {}).unwrap().film
+}
+
+#[test]
+fn the_indirect_clamp_bounds_each_sample_and_zero_leaves_direct_light() {
+    let world = cornell();
+    let base = RenderSettings { width: 24, height: 24, spp: 8, max_depth: 8, seed: 3, ..Default::default() };
+    let full = go(&world, &base);
+    let direct = go(&world, &RenderSettings { max_depth: 1, ..base.clone() });
+    let zero = go(&world, &RenderSettings { clamp_indirect: Some(0.0), ..base.clone() });
+    let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<_>>();
+    // A clamp of 0 removes every indirect contribution and nothing else.
+    assert_eq!(bits(&zero), bits(&direct));
+    let max = 0.05;
+    let clamped = go(&world, &RenderSettings { clamp_indirect: Some(max), ..base.clone() });
+    // A pixel is the mean of its samples, each with at most `max` of indirect luminance.
+    for (c, d) in clamped.pixels.iter().zip(&direct.pixels) {
+        assert!(luminance(*c) <= luminance(*d) + max + 1e-5, "{c} vs direct {d}");
+    }
+    let y = |f: &Film| luminance(f.mean());
+    assert!(y(&direct) < y(&clamped) && y(&clamped) < y(&full), "{} {} {}", y(&direct), y(&clamped), y(&full));
+    // A clamp above every sample changes nothing but the order of the sums.
+    let loose = go(&world, &RenderSettings { clamp_indirect: Some(1e30), ..base.clone() });
+    assert!((y(&loose) - y(&full)).abs() < 1e-4 * y(&full));
 }

@@ -67,6 +67,10 @@ pub struct RenderArgs {
     /// PNG tone map: aces (filmic, the default), reinhard (on luminance) or none (clip at 1).
     #[arg(long = "tone-map", value_name = "aces|reinhard|none")]
     pub tone_map: Option<String>,
+    /// Largest luminance of each sample's indirect light (path and distributed integrators):
+    /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
+    #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
+    pub clamp_indirect: Option<f32>,
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
@@ -97,6 +101,7 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
         seed: args.seed,
         background: None,
         display,
+        clamp_indirect: args.clamp_indirect,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)

@@ -116,6 +116,11 @@ pub struct RenderSettings {
     pub background: Option<Vec3>,
     /// How a PNG shows the image (exposure and tone map); an EXR stays linear.
     pub display: film::Display,
+    /// Largest luminance of a sample's indirect light (reaching the first visible surface
+    /// after a bounce or more; path and distributed integrators): larger sums are scaled down
+    /// to it. Biased (energy is lost) but removes fireflies; `None` (the default) leaves every
+    /// sample as it is.
+    pub clamp_indirect: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -129,6 +134,7 @@ impl Default for RenderSettings {
             seed: 0,
             background: None,
             display: film::Display::default(),
+            clamp_indirect: None,
         }
     }
 }
@@ -151,6 +157,11 @@ impl RenderSettings {
             && !(b.is_finite() && b.min_element() >= 0.0)
         {
             return Err(format!("background {b} must be finite and non-negative"));
+        }
+        if let Some(c) = self.clamp_indirect
+            && !(c.is_finite() && c >= 0.0)
+        {
+            return Err(format!("indirect clamp {c}: must be a finite luminance, 0 or more"));
         }
         self.display.validate()
     }
@@ -402,12 +413,15 @@ pub fn radiance(
     max_depth: u32,
     sampler: &mut Sampler,
     rays: &mut u64,
+    clamp: Option<f32>,
 ) -> Vec3 {
     match integrator {
         IntegratorKind::Raycast => raycast::li(scene, &ray, rays),
         IntegratorKind::Whitted => whitted::li(scene, &ray, 0, max_depth, rays),
-        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, sampler, rays),
-        IntegratorKind::Path => path::li(scene, ray, max_depth, sampler, rays),
+        IntegratorKind::Distributed => {
+            path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::StopAtDiffuse, clamp)
+        }
+        IntegratorKind::Path => path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp),
     }
 }
 
@@ -434,7 +448,7 @@ fn render_pixel(
             let film = Vec2::new((x as f32 + 0.5) / s.width as f32, (y as f32 + 0.5) / s.height as f32);
             camera.ray(film, Vec2::ZERO)
         };
-        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays);
+        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;
