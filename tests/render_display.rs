@@ -5,6 +5,7 @@ mod common;
 
 use std::path::Path;
 
+use glam::Vec3;
 use propsim::render::film::luminance;
 use propsim::render::{Film, RenderScene, RenderSettings, render, scene_camera};
 use propsim::scene::{self, LoadOptions, World};
@@ -145,4 +146,43 @@ fn the_indirect_clamp_bounds_each_sample_and_zero_leaves_direct_light() {
     // A clamp above every sample changes nothing but the order of the sums.
     let loose = go(&world, &RenderSettings { clamp_indirect: Some(1e30), ..base.clone() });
     assert!((y(&loose) - y(&full)).abs() < 1e-4 * y(&full));
+}
+
+/// `common::BOX_OBJ` in `dir`, without the faces whose line is in `drop`, as a world.
+fn box_world(dir: &Path, drop: &[&str]) -> World {
+    let text: String = common::BOX_OBJ.lines().filter(|l| !drop.contains(l)).map(|l| format!("{l}\n")).collect();
+    let path = dir.join("box.obj");
+    std::fs::write(&path, text).unwrap();
+    World::build(scene::load(&path, &LoadOptions::default()).unwrap())
+}
+
+#[test]
+fn the_automatic_camera_of_a_closed_room_stands_inside_at_eye_height() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_world(dir.path(), &[]);
+    let v = propsim::render::auto_camera(&world, Vec3::Z, None);
+    assert!(v.inside, "{v:?}");
+    assert_eq!(world.is_inside(v.eye), Some(true));
+    // 2.5 m room: eye at 60 % of the height (1.5 m) rather than 1.6 m; a wide lens; looking
+    // across the floor plan's diagonal, a little down.
+    assert!((v.eye.z - 1.5).abs() < 1e-5, "{v:?}");
+    assert_eq!(v.fov_deg, propsim::render::AUTO_INTERIOR_FOV_DEG);
+    let look = v.target - v.eye;
+    assert!(look.x > 2.0 && look.y > 1.5 && look.z < 0.0, "{v:?}");
+    assert_eq!(propsim::render::auto_camera(&world, Vec3::Z, Some(50.0)).fov_deg, 50.0);
+    // From the command line: every pixel of a head-lit raycast sees a wall from inside.
+    let (ok, _, err) = propsim_in(
+        dir.path(),
+        &["render", "box.obj", "-o", "in.png", "--integrator", "raycast", "--width", "32", "--height", "24"],
+    );
+    assert!(ok, "{err}");
+    let img = image::open(dir.path().join("in.png")).unwrap().to_rgb8();
+    assert!(img.pixels().all(|p| p.0.iter().any(|&c| c > 0)), "a black (outside) pixel");
+    // An open box keeps the outside view.
+    let open = tempfile::tempdir().unwrap();
+    let world = box_world(open.path(), &["f 1 2 6 5"]);
+    let v = propsim::render::auto_camera(&world, Vec3::Z, None);
+    assert!(!v.inside);
+    let (lo, hi) = world.scene.mesh.bounds().unwrap();
+    assert!(v.eye.cmplt(lo).any() || v.eye.cmpgt(hi).any(), "{v:?}");
 }

@@ -18,8 +18,8 @@ pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
 /// Memory a render holds per pixel, bytes: film and tile results (12 bytes of float RGB each)
 /// and the 8-bit image written from them (16384 x 16384 peaked at 6.4 GB).
 pub const BYTES_PER_PIXEL: u64 = 28;
-/// Vertical field of view of the automatic camera, degrees.
-pub const AUTO_FOV_DEG: f32 = 40.0;
+/// Vertical field of view of the automatic camera outside a model, degrees.
+pub const AUTO_FOV_DEG: f32 = crate::render::AUTO_FOV_DEG;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -107,7 +107,8 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
     Ok(s)
 }
 
-/// The camera: the scene's `[camera]` or an automatic view of the bounds, then the flags.
+/// The camera: the scene's `[camera]` or the automatic one ([`crate::render::auto_camera`]:
+/// inside a closed room, else outside the bounds), then the flags.
 pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<Camera> {
     let (eye, target, up, fov, lens) = match &world.scene.desc.camera {
         Some(c) => (
@@ -118,12 +119,9 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
             (c.aperture_radius_m, c.focus_distance_m),
         ),
         None => {
-            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
             let up = args.up.map_or(Vec3::Z, Vec3::from);
-            let fov = args.fov_deg.unwrap_or(AUTO_FOV_DEG);
-            let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 { fov } else { AUTO_FOV_DEG };
-            let (eye, target) = Camera::auto_view(lo, hi, up, fov_ok);
-            (eye, target, up, fov, (0.0, None))
+            let v = crate::render::auto_camera(world, up, args.fov_deg);
+            (v.eye, v.target, up, v.fov_deg, (0.0, None))
         }
     };
     let eye = args.eye.map_or(eye, Vec3::from);

@@ -578,11 +578,69 @@ pub fn scene_camera(world: &World, aspect: f32) -> Result<Camera, String> {
     match &world.scene.desc.camera {
         Some(d) => Camera::from_desc(d, aspect),
         None => {
-            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-            let (eye, target) = Camera::auto_view(lo, hi, Vec3::Z, 40.0);
-            Camera::look_at(eye, target, Vec3::Z, 40.0, aspect)
+            let v = auto_camera(world, Vec3::Z, None);
+            Camera::look_at(v.eye, v.target, Vec3::Z, v.fov_deg, aspect)
         }
     }
+}
+
+/// Vertical field of view of the automatic camera outside a model, degrees.
+pub const AUTO_FOV_DEG: f32 = 40.0;
+/// Vertical field of view of the automatic camera inside a closed room, degrees: wide, as a
+/// photographer's interior lens.
+pub const AUTO_INTERIOR_FOV_DEG: f32 = 70.0;
+/// Height of the automatic camera above the floor of a closed room, metres (eye height).
+pub const AUTO_EYE_HEIGHT_M: f32 = 1.6;
+/// How far in from the room's corner the interior camera stands, as a fraction of the room's
+/// length and width.
+pub const AUTO_CORNER_INSET: f32 = 0.12;
+
+/// Where the automatic camera stands and looks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AutoView {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub fov_deg: f32,
+    /// Whether the camera stands inside a closed room.
+    pub inside: bool,
+}
+
+/// The automatic camera for a scene without one. Inside a closed room (Z up): near a corner of
+/// the bounding box, at eye height ([`AUTO_EYE_HEIGHT_M`], at most 60 % of the room's height),
+/// looking across the diagonal at the far corner a little below eye level, with a wide lens
+/// ([`AUTO_INTERIOR_FOV_DEG`]): from outside, a closed room shows only its outer walls. The
+/// first of the four corners whose point is in the room's air and clear of every surface is
+/// taken. Otherwise (open scenes, other up directions, rooms with no such corner): the
+/// outside view of [`Camera::auto_view`]. `fov_deg` overrides the field of view.
+pub fn auto_camera(world: &World, up: Vec3, fov_deg: Option<f32>) -> AutoView {
+    let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+    let fov = fov_deg.filter(|f| f.is_finite() && *f > 0.0 && *f < 179.0);
+    let size = hi - lo;
+    let z_up = up.normalize_or_zero().z > 0.999;
+    if z_up && world.report.air_volume_m3.is_some() && size.min_element() > 0.0 {
+        let eye_z = lo.z + AUTO_EYE_HEIGHT_M.min(0.6 * size.z);
+        let target_z = lo.z + 0.4 * size.z;
+        let inset = AUTO_CORNER_INSET * size;
+        let near = |fx: bool, fy: bool| {
+            Vec3::new(
+                if fx { hi.x - inset.x } else { lo.x + inset.x },
+                if fy { hi.y - inset.y } else { lo.y + inset.y },
+                0.0,
+            )
+        };
+        for (fx, fy) in [(false, false), (true, false), (true, true), (false, true)] {
+            let eye = near(fx, fy).with_z(eye_z);
+            let clear = world.surface_distance_m(eye) >= 0.1 * size.min_element().min(1.0);
+            if clear && world.is_inside(eye) == Some(true) {
+                let target = near(!fx, !fy).with_z(target_z);
+                let fov_deg = fov.unwrap_or(AUTO_INTERIOR_FOV_DEG);
+                return AutoView { eye, target, fov_deg, inside: true };
+            }
+        }
+    }
+    let fov_deg = fov.unwrap_or(AUTO_FOV_DEG);
+    let (eye, target) = Camera::auto_view(lo, hi, up, fov_deg);
+    AutoView { eye, target, fov_deg, inside: false }
 }
 
 /// Renders a world with its own camera: the few-line library entry point.
