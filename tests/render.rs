@@ -9,7 +9,17 @@ use propsim::render::{
 use propsim::scene::{self, LoadOptions, World};
 
 fn settings(w: u32, spp: u32, max_depth: u32, integrator: IntegratorKind, seed: u64) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp, max_depth, integrator, seed, background: None, display: Default::default(), clamp_indirect: None }
+    RenderSettings {
+        width: w,
+        height: w,
+        spp,
+        max_depth,
+        integrator,
+        seed,
+        background: None,
+        display: Default::default(),
+        clamp_indirect: None,
+    }
 }
 
 fn go(scene: &RenderScene, cam: &Camera, s: &RenderSettings) -> Film {

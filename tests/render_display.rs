@@ -83,9 +83,10 @@ fn exr_stays_linear_whatever_the_exposure_and_tone_map() {
     let d = dir.path();
     let common = ["builtin:cornell_box_classic", "--width", "24", "--height", "24", "--spp", "4"];
     let mut outputs = Vec::new();
-    for (i, extra) in [&[][..], &["--exposure", "3", "--tone-map", "reinhard"][..], &["--tone-map", "none"][..]]
-        .iter()
-        .enumerate()
+    for (i, extra) in
+        [&[][..], &["--exposure", "3", "--tone-map", "reinhard"][..], &["--tone-map", "none"][..]]
+            .iter()
+            .enumerate()
     {
         let name = format!("i{i}.exr");
         let mut args = vec!["render", "-o", &name];
@@ -142,7 +143,13 @@ fn the_indirect_clamp_bounds_each_sample_and_zero_leaves_direct_light() {
         assert!(luminance(*c) <= luminance(*d) + max + 1e-5, "{c} vs direct {d}");
     }
     let y = |f: &Film| luminance(f.mean());
-    assert!(y(&direct) < y(&clamped) && y(&clamped) < y(&full), "{} {} {}", y(&direct), y(&clamped), y(&full));
+    assert!(
+        y(&direct) < y(&clamped) && y(&clamped) < y(&full),
+        "{} {} {}",
+        y(&direct),
+        y(&clamped),
+        y(&full)
+    );
     // A clamp above every sample changes nothing but the order of the sums.
     let loose = go(&world, &RenderSettings { clamp_indirect: Some(1e30), ..base.clone() });
     assert!((y(&loose) - y(&full)).abs() < 1e-4 * y(&full));
@@ -150,7 +157,8 @@ fn the_indirect_clamp_bounds_each_sample_and_zero_leaves_direct_light() {
 
 /// `common::BOX_OBJ` in `dir`, without the faces whose line is in `drop`, as a world.
 fn box_world(dir: &Path, drop: &[&str]) -> World {
-    let text: String = common::BOX_OBJ.lines().filter(|l| !drop.contains(l)).map(|l| format!("{l}\n")).collect();
+    let text: String =
+        common::BOX_OBJ.lines().filter(|l| !drop.contains(l)).map(|l| format!("{l}\n")).collect();
     let path = dir.join("box.obj");
     std::fs::write(&path, text).unwrap();
     World::build(scene::load(&path, &LoadOptions::default()).unwrap())

@@ -421,7 +421,9 @@ pub fn radiance(
         IntegratorKind::Distributed => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::StopAtDiffuse, clamp)
         }
-        IntegratorKind::Path => path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp),
+        IntegratorKind::Path => {
+            path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
+        }
     }
 }
 
