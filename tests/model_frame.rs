@@ -123,6 +123,7 @@ fn bad_up_axes_and_scales_fail_with_one_line() {
     assert_clean_error(&["acoustic", o, "--scale", "-2"], &["--scale"]);
     assert_clean_error(&["run", o, "--scale", "0"], &["--scale"]);
     assert_clean_error(&["info", o, "--scale", "1e38"], &["m.obj", "too large"]);
+    assert_clean_error(&["info", o, "--scale", "1e-45"], &["m.obj", "zero area"]);
     for (key, needle) in [("scale = 0.0", "scale"), ("scale = -1", "scale"), ("up_axis = \"x\"", "up_axis")] {
         let toml = dir.path().join("bad.toml");
         std::fs::write(&toml, format!("obj = \"m.obj\"\n{key}\n")).unwrap();

@@ -179,6 +179,12 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
                 format!("scaled by {scale} the model has coordinates too large for 32-bit floats"),
             ));
         }
+        if (0..mesh.triangle_count()).all(|t| mesh.triangle_area(t) <= 0.0) {
+            return Err(SceneError::invalid(
+                &obj_path,
+                format!("scaled by {scale} the model shrinks to nothing: every triangle has zero area"),
+            ));
+        }
     }
 
     // Resolve every surface name.
