@@ -95,9 +95,7 @@ fn a_centimetre_model_scaled_by_a_hundredth_is_the_metre_model() {
     let b = info(&cm, &["--scale", "0.01"]);
     for key in ["bounds_min_m", "bounds_max_m"] {
         let (pa, pb) = (vec3(&a[key]), vec3(&b[key]));
-        for i in 0..3 {
-            assert!((pa[i] - pb[i]).abs() < 1e-5, "{key}: {pa:?} vs {pb:?}");
-        }
+        assert!(pa.iter().zip(&pb).all(|(a, b)| (a - b).abs() < 1e-5), "{key}: {pa:?} vs {pb:?}");
     }
     let (va, vb) = (a["air_volume_m3"].as_f64().unwrap(), b["air_volume_m3"].as_f64().unwrap());
     assert!((va - vb).abs() < 1e-4 * va, "volume {va} vs {vb}");
