@@ -150,6 +150,13 @@ fn the_indirect_clamp_bounds_each_sample_and_zero_leaves_direct_light() {
         y(&clamped),
         y(&full)
     );
+    // The same image on any number of threads.
+    let pool = |n: usize| rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap();
+    let on = |n: usize| {
+        pool(n).install(|| go(&world, &RenderSettings { clamp_indirect: Some(max), ..base.clone() }))
+    };
+    assert_eq!(bits(&on(1)), bits(&clamped));
+    assert_eq!(bits(&on(3)), bits(&clamped));
     // A clamp above every sample changes nothing but the order of the sums.
     let loose = go(&world, &RenderSettings { clamp_indirect: Some(1e30), ..base.clone() });
     assert!((y(&loose) - y(&full)).abs() < 1e-4 * y(&full));
