@@ -24,7 +24,11 @@ fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> Wor
         format!("[materials.test_wall]\nabsorption = {absorption}\nscattering = {scattering}\n"),
     )
     .unwrap();
-    let s = scene::load(&obj_path, &LoadOptions { materials_files: vec![PathBuf::from(&mats)] }).unwrap();
+    let s = scene::load(
+        &obj_path,
+        &LoadOptions { materials_files: vec![PathBuf::from(&mats)], ..Default::default() },
+    )
+    .unwrap();
     World::build(s)
 }
 

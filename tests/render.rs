@@ -9,7 +9,7 @@ use propsim::render::{
 use propsim::scene::{self, LoadOptions, World};
 
 fn settings(w: u32, spp: u32, max_depth: u32, integrator: IntegratorKind, seed: u64) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp, max_depth, integrator, seed, background: None }
+    RenderSettings { width: w, height: w, spp, max_depth, integrator, seed, ..RenderSettings::default() }
 }
 
 fn go(scene: &RenderScene, cam: &Camera, s: &RenderSettings) -> Film {
@@ -291,7 +291,7 @@ fn same_seed_same_image_on_one_and_two_threads() {
             max_depth: 8,
             integrator,
             seed: 42,
-            background: None,
+            ..RenderSettings::default()
         };
         let run = |threads: usize| {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();

@@ -164,7 +164,7 @@ fn materials_file_given_on_its_own_overrides_the_library() {
         "mats.toml",
         "[materials.concrete]\nabsorption = [0.02, 0.03, 0.03, 0.03, 0.04, 0.07]\nscattering = [0.1, 0.1, 0.1, 0.1, 0.1, 0.1]\nitu = \"concrete\"\n\n[materials.my_wall]\nabsorption = 0.5\n",
     );
-    let opts = LoadOptions { materials_files: vec![mats] };
+    let opts = LoadOptions { materials_files: vec![mats], ..Default::default() };
     let s = scene::load(&obj, &opts).unwrap();
     let a = s.surfaces[0].material.as_ref().unwrap().acoustic.as_ref().unwrap();
     assert_eq!(a.absorption[1], 0.02);

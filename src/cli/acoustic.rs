@@ -34,6 +34,8 @@ pub struct AcousticArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
     /// Rays per source (default: the scene's, else 200000).
     #[arg(long)]
     pub rays: Option<u64>,
@@ -509,7 +511,7 @@ pub fn execute(
 
 pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
-    let world = super::load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
     let scene_label = args.scene.display().to_string();
     warn_internal_sheets(&world, &scene_label);
     let plan = plan(args, &world, &scene_label)?;

@@ -44,6 +44,8 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         integrator,
         seed: 0,
         background: None,
+        display: Default::default(),
+        clamp_indirect: None,
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(

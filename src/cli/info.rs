@@ -7,7 +7,7 @@ use clap::Args;
 use glam::Vec3;
 use serde::Serialize;
 
-use crate::scene::{self, LoadOptions, World};
+use crate::scene::{self, World};
 
 #[derive(Args, Debug)]
 pub struct InfoArgs {
@@ -17,6 +17,8 @@ pub struct InfoArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
     /// Extra points to test for inside/outside, as X,Y,Z.
     #[arg(long = "point", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub points: Vec<[f32; 3]>,
@@ -199,7 +201,7 @@ pub fn format_report(r: &InfoReport) -> String {
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let options = LoadOptions { materials_files: args.materials.clone() };
+    let options = super::load_options(&args.materials, &args.model);
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
         tell!("warning: {w}");

@@ -7,9 +7,9 @@ use clap::Args;
 use glam::Vec3;
 
 use crate::dist::Cluster;
-use crate::render::film::ImageFormat;
+use crate::render::film::{Display, ImageFormat};
 use crate::render::{Camera, IntegratorKind, RenderOutput, RenderScene, RenderSettings, render_on};
-use crate::scene::{self, LoadOptions, World};
+use crate::scene::{self, World};
 
 /// The scene `propsim render` uses when given none.
 pub const DEFAULT_RENDER_SCENE: &str = "builtin:cornell_box_classic";
@@ -18,15 +18,16 @@ pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
 /// Memory a render holds per pixel, bytes: film and tile results (12 bytes of float RGB each)
 /// and the 8-bit image written from them (16384 x 16384 peaked at 6.4 GB).
 pub const BYTES_PER_PIXEL: u64 = 28;
-/// Vertical field of view of the automatic camera, degrees.
-pub const AUTO_FOV_DEG: f32 = 40.0;
+/// Vertical field of view of the automatic camera outside a model, degrees.
+pub const AUTO_FOV_DEG: f32 = crate::render::AUTO_FOV_DEG;
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
     /// Scene file (.toml), bare OBJ (with its MTL), or builtin:NAME.
     #[arg(default_value = DEFAULT_RENDER_SCENE)]
     pub scene: PathBuf,
-    /// Output image; the extension picks the format: .png (8-bit sRGB) or .exr (linear float).
+    /// Output image; the extension picks the format: .png (8-bit sRGB, exposed and tone
+    /// mapped) or .exr (linear float radiance, untouched by --exposure and --tone-map).
     #[arg(short = 'o', long = "output", default_value = "out/render.png")]
     pub output: PathBuf,
     /// Image width in pixels (default: the scene's, else 640).
@@ -59,9 +60,22 @@ pub struct RenderArgs {
     /// Vertical field of view, degrees.
     #[arg(long = "fov-deg")]
     pub fov_deg: Option<f32>,
+    /// PNG exposure in stops: radiance x 2^EV before the tone map (default: the scene's, else
+    /// 0). EXR output stays linear.
+    #[arg(long = "exposure", value_name = "EV")]
+    pub exposure_ev: Option<f32>,
+    /// PNG tone map: aces (filmic, the default), reinhard (on luminance) or none (clip at 1).
+    #[arg(long = "tone-map", value_name = "aces|reinhard|none")]
+    pub tone_map: Option<String>,
+    /// Largest luminance of each sample's indirect light (path and distributed integrators):
+    /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
+    #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
+    pub clamp_indirect: Option<f32>,
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -71,6 +85,13 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
     let integrator: IntegratorKind =
         integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
     let d = RenderSettings::default();
+    let tone_map = match args.tone_map.clone().or(desc.tone_map) {
+        Some(name) => name.parse().map_err(|e: String| anyhow!("--tone-map: {e}"))?,
+        None => d.display.tone_map,
+    };
+    let exposure_ev = args.exposure_ev.or(desc.exposure_ev).unwrap_or(d.display.exposure_ev);
+    let display = Display { exposure_ev, tone_map };
+    display.validate().map_err(|e| anyhow!("--exposure: {e}"))?;
     let s = RenderSettings {
         width: args.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
         height: args.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
@@ -79,12 +100,15 @@ pub fn settings(args: &RenderArgs, world: &World) -> anyhow::Result<RenderSettin
         integrator,
         seed: args.seed,
         background: None,
+        display,
+        clamp_indirect: args.clamp_indirect,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
 }
 
-/// The camera: the scene's `[camera]` or an automatic view of the bounds, then the flags.
+/// The camera: the scene's `[camera]` or the automatic one ([`crate::render::auto_camera`]:
+/// inside a closed room, else outside the bounds), then the flags.
 pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<Camera> {
     let (eye, target, up, fov, lens) = match &world.scene.desc.camera {
         Some(c) => (
@@ -95,12 +119,9 @@ pub fn camera(args: &RenderArgs, world: &World, aspect: f32) -> anyhow::Result<C
             (c.aperture_radius_m, c.focus_distance_m),
         ),
         None => {
-            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
             let up = args.up.map_or(Vec3::Z, Vec3::from);
-            let fov = args.fov_deg.unwrap_or(AUTO_FOV_DEG);
-            let fov_ok = if fov.is_finite() && fov > 0.0 && fov < 179.0 { fov } else { AUTO_FOV_DEG };
-            let (eye, target) = Camera::auto_view(lo, hi, up, fov_ok);
-            (eye, target, up, fov, (0.0, None))
+            let v = crate::render::auto_camera(world, up, args.fov_deg);
+            (v.eye, v.target, up, v.fov_deg, (0.0, None))
         }
     };
     let eye = args.eye.map_or(eye, Vec3::from);
@@ -146,7 +167,7 @@ pub fn execute(
     bar.finish_and_clear();
     // Only rank 0 holds the image and writes.
     let Some(out) = out else { return Ok(false) };
-    out.film.write(output)?;
+    out.film.write_with(output, &s.display)?;
     say!("{}", summary(output, s, &out));
     Ok(true)
 }
@@ -157,7 +178,7 @@ pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.output, false)?;
     }
-    let options = LoadOptions { materials_files: args.materials.clone() };
+    let options = super::load_options(&args.materials, &args.model);
     let scene = scene::load(&args.scene, &options)?;
     for w in &scene.warnings {
         tell!("warning: {w}");

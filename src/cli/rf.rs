@@ -72,6 +72,8 @@ pub struct RfArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
     /// Use ITU-R P.2040 fits outside their frequency ranges.
     #[arg(long)]
     pub extrapolate: bool,
@@ -297,7 +299,7 @@ pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
         "--png-width {}: must be between {MIN_PNG_WIDTH} and {MAX_PNG_WIDTH} pixels",
         args.png_width
     );
-    let world = super::load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
     let scene_name = args.scene.display().to_string();
     let config =
         RfConfig::from_scene(&world, &args.overrides()).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
@@ -406,7 +408,7 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         "--repeat {}: must be between 1 and 1000",
         args.repeat
     );
-    let world = super::load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials, &super::ModelArgs::default())?;
     let name = args.scene.display().to_string();
     let overrides = Overrides {
         rays: Some(args.rays),

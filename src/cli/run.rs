@@ -69,6 +69,8 @@ pub struct RunArgs {
     /// Extra materials file(s).
     #[arg(long = "materials")]
     pub materials: Vec<PathBuf>,
+    #[command(flatten)]
+    pub model: super::ModelArgs,
     /// The parts to run, a comma list of render, acoustic and rf (default: all three).
     #[arg(long, value_parser = parse_part, value_delimiter = ',', num_args = 1)]
     pub only: Vec<Part>,
@@ -266,6 +268,7 @@ fn sub_args(
     for m in &args.materials {
         v.extend(["--materials".to_string(), m.display().to_string()]);
     }
+    v.extend(args.model.words());
     v.extend(extra.iter().cloned());
     parse(v)
 }
@@ -293,7 +296,7 @@ impl Written {
 pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     // Load once up front: a bad scene fails before any work, with the usual one-line error.
-    let world = super::load_world(&args.scene, &args.materials)?;
+    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
     let scene_label = args.scene.display().to_string();
     super::acoustic::warn_internal_sheets(&world, &scene_label);
     let desc = world.scene.desc.clone();

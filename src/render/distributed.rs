@@ -15,5 +15,5 @@ use crate::core::Ray;
 
 /// Radiance along camera ray `ray`, following at most `max_depth` specular/glossy bounces.
 pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
-    trace(scene, ray, max_depth, sampler, rays, PathMode::StopAtDiffuse)
+    trace(scene, ray, max_depth, sampler, rays, PathMode::StopAtDiffuse, None)
 }

@@ -1,5 +1,10 @@
 //! The image being rendered (linear RGB radiance per pixel) and its output as 8-bit sRGB PNG
 //! or linear float EXR.
+//!
+//! A PNG is a picture for a screen: its values are multiplied by 2^exposure, tone mapped into
+//! [0, 1] ([`ToneMap`]) and encoded with the sRGB curve ([`Display`]). An EXR keeps the
+//! scene-referred linear radiance untouched (no exposure, no tone map), for compositing and
+//! measurement.
 
 use std::path::Path;
 
@@ -42,6 +47,105 @@ pub fn linear_to_srgb(x: f32) -> f32 {
     if x <= 0.003_130_8 { 12.92 * x } else { 1.055 * x.powf(1.0 / 2.4) - 0.055 }
 }
 
+/// Rec. 709 luminance of linear RGB.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// How linear radiance (after exposure) is brought into [0, 1] for an 8-bit PNG.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum ToneMap {
+    /// Values clipped at 1: bright areas burn out (the PNGs of propsim before 0.1's tone maps).
+    None,
+    /// Narkowicz's fit of the ACES filmic curve (2016), per channel:
+    /// x (2.51 x + 0.03) / (x (2.43 x + 0.59) + 0.14), clipped to [0, 1]. A toe and a
+    /// shoulder: highlights roll off instead of clipping, shadows gain contrast.
+    #[default]
+    Aces,
+    /// Reinhard (2002) on luminance: each pixel scaled by L' / L with L' = L / (1 + L), then
+    /// clipped to [0, 1]; keeps hues, compresses every brightness a little.
+    Reinhard,
+}
+
+impl ToneMap {
+    pub fn name(self) -> &'static str {
+        match self {
+            ToneMap::None => "none",
+            ToneMap::Aces => "aces",
+            ToneMap::Reinhard => "reinhard",
+        }
+    }
+
+    /// The display-linear value in [0, 1] of exposed linear radiance `c`.
+    #[inline]
+    pub fn apply(self, c: Vec3) -> Vec3 {
+        let c = c.max(Vec3::ZERO);
+        let mapped = match self {
+            ToneMap::None => c,
+            ToneMap::Aces => (c * (2.51 * c + 0.03)) / (c * (2.43 * c + 0.59) + 0.14),
+            ToneMap::Reinhard => {
+                let l = luminance(c);
+                if l > 0.0 { c * (1.0 / (1.0 + l)) } else { Vec3::ZERO }
+            }
+        };
+        mapped.clamp(Vec3::ZERO, Vec3::ONE)
+    }
+}
+
+impl std::str::FromStr for ToneMap {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "none" => Ok(ToneMap::None),
+            "aces" => Ok(ToneMap::Aces),
+            "reinhard" => Ok(ToneMap::Reinhard),
+            _ => Err(format!("\"{s}\": expected none, aces or reinhard")),
+        }
+    }
+}
+
+/// Largest exposure magnitude accepted, stops (2^30 is far past any useful picture).
+pub const MAX_EXPOSURE_EV: f32 = 30.0;
+
+/// How a PNG shows the film: exposure, then tone map, then the sRGB curve. EXR ignores it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Display {
+    /// Exposure, stops: radiance is multiplied by 2^`exposure_ev` before the tone map.
+    pub exposure_ev: f32,
+    pub tone_map: ToneMap,
+}
+
+impl Default for Display {
+    /// No exposure change, ACES filmic.
+    fn default() -> Self {
+        Self { exposure_ev: 0.0, tone_map: ToneMap::Aces }
+    }
+}
+
+impl Display {
+    /// Linear values clipped at 1 (no exposure, no tone map).
+    pub const LINEAR: Display = Display { exposure_ev: 0.0, tone_map: ToneMap::None };
+
+    /// Checks the exposure; the error is one line.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.exposure_ev.is_finite() && self.exposure_ev.abs() <= MAX_EXPOSURE_EV) {
+            return Err(format!(
+                "exposure {} EV: must be a number between -{MAX_EXPOSURE_EV} and {MAX_EXPOSURE_EV}",
+                self.exposure_ev
+            ));
+        }
+        Ok(())
+    }
+
+    /// The display-linear value in [0, 1] of linear radiance `c` (before the sRGB curve).
+    #[inline]
+    pub fn map(&self, c: Vec3) -> Vec3 {
+        let c = if c.is_finite() { c } else { Vec3::ZERO };
+        self.tone_map.apply(c * self.exposure_ev.exp2())
+    }
+}
+
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
         Self { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
@@ -58,20 +162,29 @@ impl Film {
         (s / self.pixels.len().max(1) as f64).as_vec3()
     }
 
-    /// 8-bit sRGB bytes, RGB interleaved (non-finite values become black).
+    /// 8-bit sRGB bytes, RGB interleaved, of the linear values clipped at 1 (non-finite values
+    /// become black).
     pub fn to_srgb8(&self) -> Vec<u8> {
+        self.to_srgb8_with(&Display::LINEAR)
+    }
+
+    /// 8-bit sRGB bytes, RGB interleaved, as `display` shows the film.
+    pub fn to_srgb8_with(&self, display: &Display) -> Vec<u8> {
         self.pixels
             .iter()
-            .flat_map(|p| {
-                let p = if p.is_finite() { *p } else { Vec3::ZERO };
-                p.to_array().map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
-            })
+            .flat_map(|p| display.map(*p).to_array().map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8))
             .collect()
     }
 
-    /// Writes the image; the format follows the extension (.png or .exr). Parent directories
-    /// are created.
+    /// Writes the image, a PNG of the linear values clipped at 1 ([`Display::LINEAR`]) or a
+    /// linear EXR; see [`Film::write_with`].
     pub fn write(&self, path: &Path) -> anyhow::Result<()> {
+        self.write_with(path, &Display::LINEAR)
+    }
+
+    /// Writes the image; the format follows the extension: .png as `display` shows it, .exr
+    /// linear and untouched. Parent directories are created.
+    pub fn write_with(&self, path: &Path, display: &Display) -> anyhow::Result<()> {
         let format = ImageFormat::from_path(path)?;
         if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
             std::fs::create_dir_all(dir)
@@ -82,7 +195,7 @@ impl Film {
                 let mut png = std::io::Cursor::new(Vec::new());
                 image::write_buffer_with_format(
                     &mut png,
-                    &self.to_srgb8(),
+                    &self.to_srgb8_with(display),
                     self.width,
                     self.height,
                     image::ColorType::Rgb8,
@@ -124,6 +237,35 @@ mod tests {
         // 18 % grey is about 46 % in sRGB.
         assert!((linear_to_srgb(0.18) - 0.4614).abs() < 1e-3);
         assert!((linear_to_srgb(5.0) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn tone_maps_follow_their_formulas() {
+        let aces = |x: f32| (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14);
+        for x in [0.0f32, 0.05, 0.18, 0.5, 1.0, 2.0] {
+            let c = Vec3::splat(x);
+            let d = Display { exposure_ev: 0.0, tone_map: ToneMap::Aces };
+            assert!((d.map(c).x - aces(x).min(1.0)).abs() < 1e-6, "aces {x}");
+            let r = Display { exposure_ev: 0.0, tone_map: ToneMap::Reinhard }.map(c);
+            assert!((r.x - x / (1.0 + x)).abs() < 1e-6, "reinhard {x}");
+            assert_eq!(Display::LINEAR.map(c).x, x.min(1.0));
+            // +1 EV doubles the value the tone map receives.
+            let up = Display { exposure_ev: 1.0, tone_map: ToneMap::Aces };
+            assert!((up.map(c).x - aces(2.0 * x).min(1.0)).abs() < 1e-6, "exposure {x}");
+        }
+        // Highlights roll off instead of clipping; the curve never decreases.
+        let mut last = 0.0;
+        for i in 0..200 {
+            let v = Display::default().map(Vec3::splat(i as f32 * 0.1)).x;
+            assert!(v >= last && v <= 1.0);
+            last = v;
+        }
+        assert!(Display::default().map(Vec3::splat(1.0)).x < 1.0);
+        assert!(Display { exposure_ev: f32::NAN, tone_map: ToneMap::Aces }.validate().is_err());
+        assert!(Display { exposure_ev: 31.0, tone_map: ToneMap::Aces }.validate().is_err());
+        assert!(Display { exposure_ev: -3.0, tone_map: ToneMap::None }.validate().is_ok());
+        assert_eq!("Reinhard".parse::<ToneMap>(), Ok(ToneMap::Reinhard));
+        assert!("filmic".parse::<ToneMap>().is_err());
     }
 
     #[test]

@@ -32,9 +32,10 @@ use crate::core::sampling::sin_cos_quarter;
 const N: usize = LANES;
 
 /// Whether [`render_tile`] can render `scene` with `settings`: the path integrator, no
-/// spheres, Lambertian surfaces only, triangle lights only.
+/// spheres, Lambertian surfaces only, triangle lights only, no indirect clamp.
 pub fn applies(scene: &RenderScene, settings: &RenderSettings) -> bool {
     settings.integrator == IntegratorKind::Path
+        && settings.clamp_indirect.is_none()
         && scene.accel.spheres.is_empty()
         && scene.surfaces.iter().all(|o| matches!(o.bsdf, Bsdf::Lambert { .. }))
         && scene.lights.lights.iter().all(|l| matches!(l, Light::Triangle { .. }))

@@ -114,6 +114,13 @@ pub struct RenderSettings {
     pub seed: u64,
     /// Radiance of rays that leave the scene; `None` keeps the scene's (default black).
     pub background: Option<Vec3>,
+    /// How a PNG shows the image (exposure and tone map); an EXR stays linear.
+    pub display: film::Display,
+    /// Largest luminance of a sample's indirect light (reaching the first visible surface
+    /// after a bounce or more; path and distributed integrators): larger sums are scaled down
+    /// to it. Biased (energy is lost) but removes fireflies; `None` (the default) leaves every
+    /// sample as it is.
+    pub clamp_indirect: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -126,6 +133,8 @@ impl Default for RenderSettings {
             integrator: IntegratorKind::Path,
             seed: 0,
             background: None,
+            display: film::Display::default(),
+            clamp_indirect: None,
         }
     }
 }
@@ -149,7 +158,12 @@ impl RenderSettings {
         {
             return Err(format!("background {b} must be finite and non-negative"));
         }
-        Ok(())
+        if let Some(c) = self.clamp_indirect
+            && !(c.is_finite() && c >= 0.0)
+        {
+            return Err(format!("indirect clamp {c}: must be a finite luminance, 0 or more"));
+        }
+        self.display.validate()
     }
 }
 
@@ -399,12 +413,17 @@ pub fn radiance(
     max_depth: u32,
     sampler: &mut Sampler,
     rays: &mut u64,
+    clamp: Option<f32>,
 ) -> Vec3 {
     match integrator {
         IntegratorKind::Raycast => raycast::li(scene, &ray, rays),
         IntegratorKind::Whitted => whitted::li(scene, &ray, 0, max_depth, rays),
-        IntegratorKind::Distributed => distributed::li(scene, ray, max_depth, sampler, rays),
-        IntegratorKind::Path => path::li(scene, ray, max_depth, sampler, rays),
+        IntegratorKind::Distributed => {
+            path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::StopAtDiffuse, clamp)
+        }
+        IntegratorKind::Path => {
+            path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
+        }
     }
 }
 
@@ -431,7 +450,7 @@ fn render_pixel(
             let film = Vec2::new((x as f32 + 0.5) / s.width as f32, (y as f32 + 0.5) / s.height as f32);
             camera.ray(film, Vec2::ZERO)
         };
-        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays);
+        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect);
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;
@@ -561,11 +580,69 @@ pub fn scene_camera(world: &World, aspect: f32) -> Result<Camera, String> {
     match &world.scene.desc.camera {
         Some(d) => Camera::from_desc(d, aspect),
         None => {
-            let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
-            let (eye, target) = Camera::auto_view(lo, hi, Vec3::Z, 40.0);
-            Camera::look_at(eye, target, Vec3::Z, 40.0, aspect)
+            let v = auto_camera(world, Vec3::Z, None);
+            Camera::look_at(v.eye, v.target, Vec3::Z, v.fov_deg, aspect)
         }
     }
+}
+
+/// Vertical field of view of the automatic camera outside a model, degrees.
+pub const AUTO_FOV_DEG: f32 = 40.0;
+/// Vertical field of view of the automatic camera inside a closed room, degrees: wide, as a
+/// photographer's interior lens.
+pub const AUTO_INTERIOR_FOV_DEG: f32 = 70.0;
+/// Height of the automatic camera above the floor of a closed room, metres (eye height).
+pub const AUTO_EYE_HEIGHT_M: f32 = 1.6;
+/// How far in from the room's corner the interior camera stands, as a fraction of the room's
+/// length and width.
+pub const AUTO_CORNER_INSET: f32 = 0.12;
+
+/// Where the automatic camera stands and looks.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AutoView {
+    pub eye: Vec3,
+    pub target: Vec3,
+    pub fov_deg: f32,
+    /// Whether the camera stands inside a closed room.
+    pub inside: bool,
+}
+
+/// The automatic camera for a scene without one. Inside a closed room (Z up): near a corner of
+/// the bounding box, at eye height ([`AUTO_EYE_HEIGHT_M`], at most 60 % of the room's height),
+/// looking across the diagonal at the far corner a little below eye level, with a wide lens
+/// ([`AUTO_INTERIOR_FOV_DEG`]): from outside, a closed room shows only its outer walls. The
+/// first of the four corners whose point is in the room's air and clear of every surface is
+/// taken. Otherwise (open scenes, other up directions, rooms with no such corner): the
+/// outside view of [`Camera::auto_view`]. `fov_deg` overrides the field of view.
+pub fn auto_camera(world: &World, up: Vec3, fov_deg: Option<f32>) -> AutoView {
+    let (lo, hi) = world.scene.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ONE));
+    let fov = fov_deg.filter(|f| f.is_finite() && *f > 0.0 && *f < 179.0);
+    let size = hi - lo;
+    let z_up = up.normalize_or_zero().z > 0.999;
+    if z_up && world.report.air_volume_m3.is_some() && size.min_element() > 0.0 {
+        let eye_z = lo.z + AUTO_EYE_HEIGHT_M.min(0.6 * size.z);
+        let target_z = lo.z + 0.4 * size.z;
+        let inset = AUTO_CORNER_INSET * size;
+        let near = |fx: bool, fy: bool| {
+            Vec3::new(
+                if fx { hi.x - inset.x } else { lo.x + inset.x },
+                if fy { hi.y - inset.y } else { lo.y + inset.y },
+                0.0,
+            )
+        };
+        for (fx, fy) in [(false, false), (true, false), (true, true), (false, true)] {
+            let eye = near(fx, fy).with_z(eye_z);
+            let clear = world.surface_distance_m(eye) >= 0.1 * size.min_element().min(1.0);
+            if clear && world.is_inside(eye) == Some(true) {
+                let target = near(!fx, !fy).with_z(target_z);
+                let fov_deg = fov.unwrap_or(AUTO_INTERIOR_FOV_DEG);
+                return AutoView { eye, target, fov_deg, inside: true };
+            }
+        }
+    }
+    let fov_deg = fov.unwrap_or(AUTO_FOV_DEG);
+    let (eye, target) = Camera::auto_view(lo, hi, up, fov_deg);
+    AutoView { eye, target, fov_deg, inside: false }
 }
 
 /// Renders a world with its own camera: the few-line library entry point.

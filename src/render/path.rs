@@ -91,10 +91,20 @@ pub(super) fn emitted(
 /// The path-traced radiance along camera ray `ray`, with at most `max_depth` bounces
 /// (1 = direct lighting only).
 pub fn li(scene: &RenderScene, ray: Ray, max_depth: u32, sampler: &mut Sampler, rays: &mut u64) -> Vec3 {
-    trace(scene, ray, max_depth, sampler, rays, PathMode::Full)
+    trace(scene, ray, max_depth, sampler, rays, PathMode::Full, None)
 }
 
-/// The shared path loop.
+/// `l` scaled down so that its luminance is at most `max` (left alone when it is).
+#[inline]
+pub fn clamp_luminance(l: Vec3, max: f32) -> Vec3 {
+    let y = super::film::luminance(l);
+    if y > max { l * (max / y) } else { l }
+}
+
+/// The shared path loop. With `clamp_indirect`, the light reaching the first visible surface
+/// after one bounce or more (emission and light samples from the second vertex on, emission
+/// found by the first vertex's BSDF sample excepted) is summed apart and scaled down to that
+/// luminance at most; without it every contribution goes to the same sum in the same order.
 pub fn trace(
     scene: &RenderScene,
     mut ray: Ray,
@@ -102,8 +112,11 @@ pub fn trace(
     sampler: &mut Sampler,
     rays: &mut u64,
     mode: PathMode,
+    clamp_indirect: Option<f32>,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
+    let mut indirect = Vec3::ZERO;
+    let split = clamp_indirect.is_some();
     let mut beta = Vec3::ONE;
     // The camera ray counts as specular: emitters it sees take full weight.
     let mut specular = true;
@@ -112,12 +125,14 @@ pub fn trace(
     let mut depth = 0u32;
     loop {
         *rays += 1;
+        // Light found here came by `depth` bounces: direct at most 1, indirect past it.
+        let sum = if split && depth >= 2 { &mut indirect } else { &mut l };
         let Some(hit) = scene.intersect(&ray) else {
-            l += beta * scene.background;
+            *sum += beta * scene.background;
             break;
         };
         let optics = &scene.surfaces[hit.surface as usize];
-        l += emitted(scene, &hit, ray.dir, beta, (specular, prev_pdf, prev_point));
+        *sum += emitted(scene, &hit, ray.dir, beta, (specular, prev_pdf, prev_point));
         if depth >= max_depth {
             break;
         }
@@ -136,7 +151,8 @@ pub fn trace(
             // must carry the full estimate (no MIS).
             let stop = mode == PathMode::StopAtDiffuse && matches!(bsdf, Bsdf::Lambert { .. });
             let v = Vertex { hit: &hit, frame, wo, bsdf };
-            l += beta * sample_direct(scene, &v, u_light, rays, !stop);
+            let sum = if split && depth >= 2 { &mut indirect } else { &mut l };
+            *sum += beta * sample_direct(scene, &v, u_light, rays, !stop);
             if stop {
                 break;
             }
@@ -162,5 +178,8 @@ pub fn trace(
             break;
         }
     }
-    l
+    match clamp_indirect {
+        Some(max) => l + clamp_luminance(indirect, max),
+        None => l,
+    }
 }

@@ -16,6 +16,12 @@ pub type Point3 = [f32; 3];
 pub struct SceneDesc {
     /// The OBJ file, relative to the scene file.
     pub obj: Option<String>,
+    /// The OBJ's up axis, "z" (propsim's, the default) or "y" (Blender's OBJ export): a Y-up
+    /// model is rotated to Z-up at load time. Positions in this file are always Z-up.
+    pub up_axis: Option<super::load::UpAxis>,
+    /// Factor on the OBJ's coordinates to make metres (0.01 for centimetres, 0.0254 for
+    /// inches); must be finite and > 0. Positions in this file are always metres.
+    pub scale: Option<f32>,
     /// Extra materials files, relative to the scene file, applied in order.
     #[serde(default)]
     pub materials_files: Vec<String>,
@@ -68,6 +74,10 @@ pub struct RenderDesc {
     pub max_depth: Option<u32>,
     pub integrator: Option<String>,
     pub background: Option<Point3>,
+    /// PNG exposure, stops (radiance x 2^EV before the tone map); EXR stays linear.
+    pub exposure_ev: Option<f32>,
+    /// PNG tone map: "aces" (default), "reinhard" or "none".
+    pub tone_map: Option<String>,
 }
 
 /// A point light; `intensity` in W/sr per RGB channel.

@@ -3,6 +3,7 @@
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
+use serde::{Deserialize, Serialize};
 
 use super::builtin;
 use super::desc::SceneDesc;
@@ -44,6 +45,63 @@ pub struct Scene {
 pub struct LoadOptions {
     /// Extra materials files (`--materials`), applied after the scene's own files.
     pub materials_files: Vec<PathBuf>,
+    /// The OBJ's up axis (`--up-axis`); overrides the scene's `up_axis`.
+    pub up_axis: Option<UpAxis>,
+    /// Factor on the OBJ's coordinates (`--scale`); overrides the scene's `scale`.
+    pub scale: Option<f32>,
+}
+
+/// Which axis of an OBJ points up. propsim is Z-up; Blender's OBJ exporter (and many other
+/// tools) write Y-up files, which load lying on their side unless rotated.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum UpAxis {
+    /// Y up: each vertex (x, y, z) becomes (x, -z, y), a right-handed rotation (the inverse of
+    /// Blender's export), so faces keep their winding.
+    Y,
+    /// Z up, propsim's own frame: coordinates are used as they are.
+    #[default]
+    Z,
+}
+
+impl std::str::FromStr for UpAxis {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s.to_ascii_lowercase().as_str() {
+            "y" => Ok(UpAxis::Y),
+            "z" => Ok(UpAxis::Z),
+            _ => Err(format!("\"{s}\": expected y or z")),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for UpAxis {
+    /// From the scene key: "y" or "z", with an error naming the key.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let s = String::deserialize(d)?;
+        s.parse().map_err(|e| serde::de::Error::custom(format!("up_axis = {e}")))
+    }
+}
+
+/// Checks a model scale factor: finite and greater than zero.
+pub fn check_scale(scale: f32) -> Result<f32, String> {
+    if scale.is_finite() && scale > 0.0 {
+        Ok(scale)
+    } else {
+        Err(format!("{scale} is not a scale factor: it must be a finite number greater than 0"))
+    }
+}
+
+/// Puts model coordinates into propsim's Z-up metre frame: rotated for `up`, then multiplied
+/// by `scale`.
+pub fn to_propsim_frame(positions: &mut [Vec3], up: UpAxis, scale: f32) {
+    for p in positions {
+        let v = match up {
+            UpAxis::Y => Vec3::new(p.x, -p.z, p.y),
+            UpAxis::Z => *p,
+        };
+        *p = v * scale;
+    }
 }
 
 fn is_toml(path: &Path) -> bool {
@@ -106,6 +164,27 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     let mut mesh = obj.mesh;
     if mesh.triangle_count() == 0 {
         return Err(SceneError::invalid(&obj_path, "the scene is empty: no usable triangles"));
+    }
+    // The model into propsim's frame; positions in the scene file are already in it.
+    if let Some(s) = desc.scale {
+        check_scale(s).map_err(|e| SceneError::invalid(path, format!("scale = {e}")))?;
+    }
+    let up = options.up_axis.or(desc.up_axis).unwrap_or_default();
+    let scale = options.scale.or(desc.scale).unwrap_or(1.0);
+    if up != UpAxis::Z || scale != 1.0 {
+        to_propsim_frame(&mut mesh.positions, up, scale);
+        if !mesh.positions.iter().all(|p| p.is_finite()) {
+            return Err(SceneError::invalid(
+                &obj_path,
+                format!("scaled by {scale} the model has coordinates too large for 32-bit floats"),
+            ));
+        }
+        if (0..mesh.triangle_count()).all(|t| mesh.triangle_area(t) <= 0.0) {
+            return Err(SceneError::invalid(
+                &obj_path,
+                format!("scaled by {scale} the model shrinks to nothing: every triangle has zero area"),
+            ));
+        }
     }
 
     // Resolve every surface name.

@@ -13,6 +13,6 @@ pub mod world;
 pub use check::{MeshReport, analyze};
 pub use desc::SceneDesc;
 pub use error::SceneError;
-pub use load::{LoadOptions, Scene, Surface, load};
+pub use load::{LoadOptions, Scene, Surface, UpAxis, load};
 pub use materials::{Material, MaterialLibrary};
 pub use world::World;
