@@ -134,7 +134,10 @@ impl CoverageAccumulator {
             return 0.0;
         }
         let t = (self.spec.height_m - origin[2]) / dz;
-        if !(t > 0.0) || self.spec.cell_of(origin[0] + t * dir[0], origin[1] + t * dir[1]).is_none() {
+        if t.is_nan()
+            || t <= 0.0
+            || self.spec.cell_of(origin[0] + t * dir[0], origin[1] + t * dir[1]).is_none()
+        {
             return 0.0;
         }
         t
