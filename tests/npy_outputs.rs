@@ -175,3 +175,29 @@ fn each_transmitter_has_its_own_map_in_coverage_npy() {
     let at = |t: usize, x: usize| gain[t * cells + 15 * 60 + x];
     assert!(at(0, 5) > at(1, 5) && at(1, 55) > at(0, 55));
 }
+
+#[test]
+fn a_render_to_npy_holds_the_exr_values_as_height_width_channel() {
+    let dir = tempfile::tempdir().unwrap();
+    let (exr_path, npy_path) = (dir.path().join("a.exr"), dir.path().join("a.npy"));
+    for path in [&exr_path, &npy_path] {
+        let args = ["render", "builtin:cornell_box", "-o", path.to_str().unwrap()];
+        let (ok, _, err) =
+            propsim(&[&args[..], &["--width", "16", "--height", "12", "--spp", "4", "--seed", "3"]].concat());
+        assert!(ok, "{err}");
+    }
+    let (descr, shape, data) = read_npy(&npy_path);
+    assert_eq!((descr.as_str(), shape), ("<f4", vec![12, 16, 3]));
+    let npy: Vec<f32> = data.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let img = exr::prelude::read_first_rgba_layer_from_file(
+        &exr_path,
+        |r, _| vec![0.0f32; 3 * r.width() * r.height()],
+        |v: &mut Vec<f32>, p, (r, g, b, _a): (f32, f32, f32, f32)| {
+            let i = 3 * (p.y() * 16 + p.x());
+            v[i..i + 3].copy_from_slice(&[r, g, b]);
+        },
+    )
+    .unwrap();
+    assert_eq!(npy, img.layer_data.channel_data.pixels);
+    assert!(npy.iter().any(|&v| v > 0.0));
+}

@@ -235,7 +235,7 @@ pub fn write_outputs<'a>(
     );
     table?;
     picture?;
-    crate::rf::output::write_npy(&npy, &result.path_gain_array())?;
+    crate::io::npy::write_npy(&npy, &result.path_gain_array())?;
     let mut pictures = vec![png];
     if names.len() > 1 {
         let mut stems = std::collections::BTreeSet::new();

@@ -3,6 +3,7 @@
 
 pub mod atomic;
 pub mod memory;
+pub mod npy;
 pub mod plot;
 pub mod stdout;
 pub mod wav;

@@ -24,6 +24,9 @@ pub struct Film {
 pub enum ImageFormat {
     /// 8-bit sRGB PNG (values clamped to [0, 1] before encoding).
     Png,
+    /// numpy's `.npy`: the linear values as float32 of shape (height, width, 3)
+    /// ([`Film::to_array`]).
+    Npy,
     /// OpenEXR, linear 32-bit float RGB.
     Exr,
 }
@@ -34,8 +37,9 @@ impl ImageFormat {
         match path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase).as_deref() {
             Some("png") => Ok(Self::Png),
             Some("exr") => Ok(Self::Exr),
-            Some(e) => bail!("{}: unknown image format \".{e}\" (use .png or .exr)", path.display()),
-            None => bail!("{}: no file extension (use .png or .exr)", path.display()),
+            Some("npy") => Ok(Self::Npy),
+            Some(e) => bail!("{}: unknown image format \".{e}\" (use .png, .exr or .npy)", path.display()),
+            None => bail!("{}: no file extension (use .png, .exr or .npy)", path.display()),
         }
     }
 }
@@ -156,6 +160,13 @@ impl Film {
         self.pixels[(y * self.width + x) as usize]
     }
 
+    /// The linear RGB values as an array of shape (height, width, 3): pixel (x, y) from the
+    /// top left at `[y, x, channel]`.
+    pub fn to_array(&self) -> ndarray::Array3<f32> {
+        let (w, h) = (self.width as usize, self.height as usize);
+        ndarray::Array3::from_shape_fn((h, w, 3), |(y, x, c)| self.pixels[y * w + x][c])
+    }
+
     /// Mean of every pixel.
     pub fn mean(&self) -> Vec3 {
         let s: glam::DVec3 = self.pixels.iter().map(|p| p.as_dvec3()).sum();
@@ -204,6 +215,7 @@ impl Film {
                 .with_context(|| format!("{}: cannot encode PNG", path.display()))?;
                 crate::io::atomic::write_bytes(path, png.get_ref())
             }
+            ImageFormat::Npy => crate::io::npy::write_npy(path, &self.to_array()),
             ImageFormat::Exr => {
                 use exr::prelude::WritableImage as _;
                 let w = self.width as usize;

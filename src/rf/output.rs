@@ -415,19 +415,6 @@ pub fn write_cfr_csv(
     })
 }
 
-/// Writes `array` to `path` as a `.npy` file (numpy's format, little-endian, C order).
-pub fn write_npy<A, D>(path: &Path, array: &ndarray::ArrayRef<A, D>) -> anyhow::Result<()>
-where
-    A: ndarray_npy::WritableElement,
-    D: ndarray::Dimension,
-{
-    use ndarray_npy::WriteNpyExt;
-    crate::io::atomic::write_atomically(path, |out| {
-        array.write_npy(out).map_err(|e| anyhow::anyhow!("{e}"))?;
-        Ok(())
-    })
-}
-
 /// The columns of `paths.npy`: `paths.csv`'s numeric columns, the transmitter and receiver
 /// by index (in the order of the config), a zero-amplitude path's gain as NaN.
 pub const PATHS_NPY_COLUMNS: [&str; 11] = [
@@ -507,7 +494,7 @@ pub fn write_receiver_outputs(
     write_paths_csv(&paths, config, result)?;
     written.push(paths);
     let paths_npy = out.join("paths.npy");
-    write_npy(&paths_npy, &paths_array(config, result))?;
+    crate::io::npy::write_npy(&paths_npy, &paths_array(config, result))?;
     written.push(paths_npy);
     let mut stems = std::collections::BTreeSet::new();
     for (i, r) in config.receivers.iter().enumerate() {
@@ -539,7 +526,7 @@ pub fn write_receiver_outputs(
         write_cfr_csv(&cfr, config, result, spec)?;
         written.push(cfr);
         let cfr_npy = out.join("cfr.npy");
-        write_npy(&cfr_npy, &cfr_array(config, result, spec))?;
+        crate::io::npy::write_npy(&cfr_npy, &cfr_array(config, result, spec))?;
         written.push(cfr_npy);
     }
     Ok(written)
