@@ -194,8 +194,7 @@ impl Propagation for SoundPropagation<'_> {
             ratio = ratio.max(ray.energy[b] / expected);
             level = level.max(ray.energy[b]);
         }
-        // (A NaN ratio fails the test.)
-        if !(ratio > s.above) {
+        if ratio.is_nan() || ratio <= s.above {
             return 1;
         }
         let above_roulette = level / (self.ray_energy_j * self.roulette_factor);
