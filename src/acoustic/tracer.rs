@@ -179,9 +179,9 @@ impl Propagation for SoundPropagation<'_> {
     }
 
     /// [`Splitting`]: k = ratio / `to` copies when the ray's strongest band is `ratio` times
-    /// its expected energy after `path_m`, ratio > `above`; fewer if the ray may not make that many, and none
-    /// that would start below the Russian-roulette threshold (a copy would only play
-    /// roulette at once).
+    /// its expected energy after `path_m`, ratio > `above`; fewer if the ray may not make
+    /// that many, and none that would start below the Russian-roulette threshold (a copy
+    /// would only play roulette at once).
     #[inline(always)]
     fn split(&self, ray: &mut SoundRay, path_m: f32) -> u32 {
         let Some(s) = &self.splitting else { return 1 };
