@@ -169,6 +169,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         skip_specular_up_to: None,
         roulette_factor: 1e-9,
         diffuse_rain: None,
+        splitting: None,
         rain_in_view: &[],
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };

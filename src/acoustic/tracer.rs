@@ -33,6 +33,32 @@ pub struct SoundRay {
     /// The ray's last reflection was diffuse: with diffuse rain on, that part of the sound
     /// reached the receivers by the rain, so this segment's crossings are not counted again.
     pub after_diffuse: bool,
+    /// Copies this ray may still be split into, all its later splits together (see
+    /// [`Splitting`]); a split into k copies gives each a k-th of it.
+    pub copies_left: u32,
+}
+
+/// Ray splitting against the room's expected decay (Booth 1985; docs/acoustics.md, Ray
+/// splitting): a ray whose strongest band carries more than `above` times the energy an
+/// average ray has left after the same path (the band's statistical decay) is split into k
+/// equal copies, k = that ratio / `to` (rounded down), each with a k-th of its energy and its
+/// own random stream. Rays on a rare path family that loses little (a flutter echo between
+/// parallel hard walls) thus become many rays of ordinary energy, which part ways at their
+/// next scattering, instead of one rare ray that makes a step in the decay curve. Every
+/// band's expected deposit is unchanged (the copies together carry what the ray carried),
+/// so the estimate stays unbiased; only its variance falls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Splitting {
+    /// Per band, the decay rate of an average ray's energy by surface losses, 1/m (Eyring's
+    /// -ln(1 - a_mean) S / (4 V): air absorption is applied to the histogram, not the rays).
+    pub decay_per_m: BandValues,
+    /// The ratio to the expected energy above which a ray splits (> 1).
+    pub above: f32,
+    /// The ratio to the expected energy each copy starts with (at most `above` / 2, so
+    /// that a split makes at least two copies).
+    pub to: f32,
+    /// Copies a launched ray may become at most, all splits together (it bounds the cost).
+    pub copies: u32,
 }
 
 /// What rays deposit: per receiver, the energy per histogram bin and band (before air
@@ -96,6 +122,8 @@ pub struct SoundPropagation<'a> {
     /// energy is sent straight to every receiver in view, tested for occlusion in this
     /// scene. `None`: receivers count only the rays that cross them.
     pub diffuse_rain: Option<&'a Accel>,
+    /// Ray splitting; `None`: rays never split.
+    pub splitting: Option<Splitting>,
     /// Per receiver, the triangles wholly in its view ([`crate::core::visibility::triangles_in_full_view`]): rain
     /// from them needs no occlusion ray. Empty (or `None` for a receiver): trace them all.
     pub rain_in_view: &'a [Option<Vec<PartsInView>>],
@@ -142,7 +170,44 @@ impl Propagation for SoundPropagation<'_> {
     }
 
     fn emit(&self, _: u64, _: Vec3) -> SoundRay {
-        SoundRay { energy: [self.ray_energy_j; BAND_COUNT], specular_order: Some(0), after_diffuse: false }
+        SoundRay {
+            energy: [self.ray_energy_j; BAND_COUNT],
+            specular_order: Some(0),
+            after_diffuse: false,
+            copies_left: self.splitting.map_or(1, |s| s.copies),
+        }
+    }
+
+    /// [`Splitting`]: k = ratio / `to` copies when the ray's strongest band is `ratio` times
+    /// its expected energy after `path_m`, ratio > `above`; fewer if the ray may not make
+    /// that many, and none that would start below the Russian-roulette threshold (a copy
+    /// would only play roulette at once).
+    #[inline(always)]
+    fn split(&self, ray: &mut SoundRay, path_m: f32) -> u32 {
+        let Some(s) = &self.splitting else { return 1 };
+        if ray.copies_left < 2 {
+            return 1;
+        }
+        let (mut ratio, mut level) = (0.0f32, 0.0f32);
+        for b in 0..BAND_COUNT {
+            let expected = self.ray_energy_j * (-s.decay_per_m[b] * path_m).exp();
+            ratio = ratio.max(ray.energy[b] / expected);
+            level = level.max(ray.energy[b]);
+        }
+        if ratio.is_nan() || ratio <= s.above {
+            return 1;
+        }
+        let above_roulette = level / (self.ray_energy_j * self.roulette_factor);
+        let k = (ratio / s.to).min(above_roulette).min(ray.copies_left as f32) as u32;
+        if k < 2 {
+            return 1;
+        }
+        let share = 1.0 / k as f32;
+        for e in &mut ray.energy {
+            *e *= share;
+        }
+        ray.copies_left /= k;
+        k
     }
 
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds

@@ -60,6 +60,10 @@ pub struct AcousticArgs {
     /// Switch off diffuse rain (receivers then count only the rays that cross them).
     #[arg(long)]
     pub no_diffuse_rain: bool,
+    /// Switch off ray splitting (rays far stronger than the room's average decay leaves
+    /// them are otherwise split into copies, which smooths the late decay).
+    #[arg(long)]
+    pub no_splitting: bool,
     /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
     /// higher is smoother late decay for more time.
     #[arg(long)]
@@ -445,6 +449,7 @@ pub fn plan(args: &AcousticArgs, world: &World, scene_label: &str) -> anyhow::Re
         diffuse_rain: !args.no_diffuse_rain,
         ism_order: args.ism_order,
         roulette_db: args.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
+        split_copies: if args.no_splitting { 1 } else { AcousticSettings::default().split_copies },
         ..Default::default()
     };
     anyhow::ensure!(args.ism_order <= 6, "--ism-order {}: at most 6", args.ism_order);

@@ -6,6 +6,9 @@
 //! rays are processed in fixed blocks of [`LAUNCH_BLOCK`] whose results are merged in block
 //! order, so the result is the same for any thread count. Accumulators that must also be
 //! independent of how blocks are grouped (e.g. across MPI ranks) should add in fixed point.
+//! A ray split into copies ([`Propagation::split`]) hands each copy a stream forked from its
+//! own ([`super::rng::fork`]), and its copies are traced in the same block: splitting keeps
+//! all of this.
 
 use std::collections::BTreeMap;
 use std::sync::atomic::{AtomicUsize, Ordering};
@@ -18,7 +21,7 @@ use super::accel::Accel;
 use super::hit::Hit;
 use super::ray::Ray;
 
-use super::rng::{Rng64, stream, uniform};
+use super::rng::{Rng64, fork, stream, uniform};
 use super::sampling::{fibonacci_sphere, uniform_sphere};
 use super::share::Share;
 
@@ -89,6 +92,15 @@ pub trait Propagation: Sync {
     fn last_segment_reach(&self, _payload: &Self::Payload, _ray: &Ray) -> Option<f32> {
         None
     }
+    /// Splitting (Lux and Koblinger 1991; docs/acoustics.md, Ray splitting): called when the
+    /// ray meets a surface after `path_m` metres, before [`Propagation::interact`]. A result
+    /// k > 1 makes the ray k copies, each of which meets the surface on its own (its own
+    /// random stream); the implementation divides what the payload carries by k itself, so
+    /// the expected deposits stay the same. The default never splits.
+    #[inline(always)]
+    fn split(&self, _payload: &mut Self::Payload, _path_m: f32) -> u32 {
+        1
+    }
 }
 
 /// Launch settings.
@@ -113,6 +125,7 @@ fn lattice_rotation(launch: &Launch) -> f32 {
 }
 
 /// A ray in flight: where it goes next, what it carries, how far it has come.
+#[derive(Clone)]
 struct Flight<P> {
     ray: Ray,
     payload: P,
@@ -187,17 +200,22 @@ fn trace_block<P: Propagation>(
     (first, last): (u64, u64),
     accum: &mut P::Accum,
 ) {
+    // Copies made by splitting: traced after the flight that made them (last made, first).
+    let mut copies: Vec<Flight<P::Payload>> = Vec::new();
     if !accel.mesh.traverser().streams() {
         for i in first..last {
-            let mut flight = depart(prop, launch, rotation, i);
-            loop {
-                let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
-                if last_segment(accel, prop, launch, accum, &flight, &ray) {
-                    break;
-                }
-                let hit = accel.closest_hit(&ray);
-                if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref()) {
-                    break;
+            // The launched flight stays on the stack; copies wait in `copies`.
+            let mut launched = Some(depart(prop, launch, rotation, i));
+            while let Some(mut flight) = launched.take().or_else(|| copies.pop()) {
+                loop {
+                    let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
+                    if last_segment(accel, prop, launch, accum, &flight, &ray) {
+                        break;
+                    }
+                    let hit = accel.closest_hit(&ray);
+                    if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref(), &mut copies) {
+                        break;
+                    }
                 }
             }
         }
@@ -221,7 +239,7 @@ fn trace_block<P: Propagation>(
         // Flights that go on are kept in order at the front (a stable compaction in place).
         let mut kept = 0;
         for (i, (ray, hit)) in rays.iter().zip(&hits).enumerate() {
-            if step(prop, launch, accum, &mut flights[i], ray, hit.as_ref()) {
+            if step(prop, launch, accum, &mut flights[i], ray, hit.as_ref(), &mut copies) {
                 if kept != i {
                     flights.swap(kept, i);
                 }
@@ -229,6 +247,7 @@ fn trace_block<P: Propagation>(
             }
         }
         flights.truncate(kept);
+        flights.append(&mut copies);
     }
 }
 
@@ -263,7 +282,8 @@ fn last_segment<P: Propagation>(
 }
 
 /// One bounce of `flight` along `ray`, which met `hit` (or nothing): the segment's deposits,
-/// then the surface. True if the flight goes on.
+/// then the surface. True if the flight goes on; copies split off at the surface that go on
+/// are pushed to `copies`.
 #[inline(always)]
 fn step<P: Propagation>(
     prop: &P,
@@ -272,6 +292,7 @@ fn step<P: Propagation>(
     f: &mut Flight<P::Payload>,
     ray: &Ray,
     hit: Option<&Hit>,
+    copies: &mut Vec<Flight<P::Payload>>,
 ) -> bool {
     let length = hit.map_or(ray.t_max, |h| h.t);
     prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
@@ -280,6 +301,24 @@ fn step<P: Propagation>(
     if f.reflections >= launch.max_reflections {
         return false;
     }
+    for _ in 1..prop.split(&mut f.payload, f.path_m) {
+        let mut copy = Flight { rng: fork(&mut f.rng), ..f.clone() };
+        if bounce(prop, accum, &mut copy, ray, hit) {
+            copies.push(copy);
+        }
+    }
+    bounce(prop, accum, f, ray, hit)
+}
+
+/// `f`, which came along `ray`, meets the surface at `hit`. True if it goes on.
+#[inline(always)]
+fn bounce<P: Propagation>(
+    prop: &P,
+    accum: &mut P::Accum,
+    f: &mut Flight<P::Payload>,
+    ray: &Ray,
+    hit: &Hit,
+) -> bool {
     match prop.interact(accum, &mut f.payload, hit, ray.dir, f.path_m, &mut f.rng) {
         Bounce::Continue(d) => {
             f.ray = Ray::spawn(hit.point, hit.normal, d);
@@ -423,6 +462,93 @@ mod tests {
             a.2 += 1;
             Bounce::Continue(d - 2.0 * d.dot(hit.normal) * hit.normal)
         }
+    }
+
+    /// Like [`Counter`], with a weight per ray: every ray splits into three copies of a
+    /// third of its weight at its first surface, and each reflection draws from its stream.
+    struct Splitter;
+
+    impl Propagation for Splitter {
+        /// (weight, split already)
+        type Payload = (f64, bool);
+        /// (segments, weighted length, draws summed)
+        type Accum = (u64, f64, f64);
+        fn new_accum(&self) -> Self::Accum {
+            (0, 0.0, 0.0)
+        }
+        fn merge(&self, into: &mut Self::Accum, o: Self::Accum) {
+            into.0 += o.0;
+            into.1 += o.1;
+            into.2 += o.2;
+        }
+        fn emit(&self, _: u64, _: Vec3) -> (f64, bool) {
+            (1.0, false)
+        }
+        fn segment(&self, a: &mut Self::Accum, p: &(f64, bool), _: &Ray, len: f32, _: f32, _: u32) {
+            a.0 += 1;
+            a.1 += p.0 * f64::from(len);
+        }
+        fn interact(
+            &self,
+            a: &mut Self::Accum,
+            _: &mut (f64, bool),
+            hit: &Hit,
+            d: Vec3,
+            _: f32,
+            rng: &mut Rng64,
+        ) -> Bounce {
+            a.2 += f64::from(uniform(rng));
+            Bounce::Continue(d - 2.0 * d.dot(hit.normal) * hit.normal)
+        }
+        fn split(&self, p: &mut (f64, bool), _: f32) -> u32 {
+            if p.1 {
+                return 1;
+            }
+            *p = (p.0 / 3.0, true);
+            3
+        }
+    }
+
+    #[test]
+    fn split_copies_share_the_weight_and_the_result_is_the_same_for_any_thread_count() {
+        let mut mesh = TriangleMesh::default();
+        let s = mesh.surface_id("wall");
+        mesh.push_box(Vec3::ZERO, Vec3::new(10.0, 8.0, 3.0), 1, s);
+        let accel = Accel::build(&mesh, Vec::new(), BuildQuality::default());
+        let launch = Launch {
+            origin: Vec3::new(2.0, 3.0, 1.5),
+            rays: 3000,
+            seed: 7,
+            domain: 0,
+            pattern: LaunchPattern::Fibonacci,
+            max_reflections: 10_000,
+            max_path_m: 50.0,
+        };
+        let run = |threads| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| super::launch(&accel, &Splitter, &launch, &|_| {}))
+        };
+        let (segments, weighted, draws) = run(1);
+        // The copies together travel what the ray would have: weight x length = rays x path.
+        assert!((weighted - 3000.0 * 50.0).abs() < 1e-6 * 3000.0 * 50.0, "{weighted}");
+        // Three flights after the first hit: about three times the segments of one.
+        let (plain, _, _) = super::launch(&accel, &Counter, &launch, &|_| {});
+        assert!(segments > 2 * plain && segments < 3 * plain, "{segments} vs {plain}");
+        // One uniform draw per reflection (every segment but the launches ends in one).
+        assert!((draws / (segments - 3000) as f64 - 0.5).abs() < 0.01);
+        assert_eq!(run(2), (segments, weighted, draws));
+        let mut parts = (0, 0.0, 0.0);
+        for rank in 0..3 {
+            Splitter.merge(
+                &mut parts,
+                launch_share(&accel, &Splitter, &launch, Share::new(rank, 3).unwrap(), &|_| {}),
+            );
+        }
+        assert_eq!(parts.0, segments);
+        assert!((parts.1 - weighted).abs() < 1e-9 * weighted);
     }
 
     #[test]

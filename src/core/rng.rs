@@ -26,6 +26,16 @@ pub fn stream(seed: u64, domain: u64, index: u64) -> Rng64 {
     Rng64::from_seed(((u128::from(hi) << 64) | u128::from(lo)).to_le_bytes())
 }
 
+/// A new independent stream drawn from `rng` (for a copy of a split ray): its key is two
+/// draws of `rng`, mixed as in [`stream`]. Deterministic: the same `rng` state forks the
+/// same stream.
+pub fn fork(rng: &mut Rng64) -> Rng64 {
+    let key = mix64(rng.next_u64()) ^ rng.next_u64();
+    let lo = mix64(key);
+    let hi = mix64(key ^ 0xA076_1D64_78BD_642F);
+    Rng64::from_seed(((u128::from(hi) << 64) | u128::from(lo)).to_le_bytes())
+}
+
 /// A uniform float in `[0, 1)` with 24 random bits.
 #[inline]
 pub fn uniform(rng: &mut Rng64) -> f32 {
@@ -45,6 +55,17 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_ne!(a, d);
+    }
+
+    #[test]
+    fn forks_are_reproducible_and_differ_from_each_other_and_the_parent() {
+        let draw = |r: &mut Rng64| (0..4).map(|_| r.next_u32()).collect::<Vec<u32>>();
+        let (mut a, mut b) = (stream(7, 1, 42), stream(7, 1, 42));
+        let (fa1, fa2) = (draw(&mut fork(&mut a)), draw(&mut fork(&mut a)));
+        let (fb1, fb2) = (draw(&mut fork(&mut b)), draw(&mut fork(&mut b)));
+        assert_eq!((&fa1, &fa2), (&fb1, &fb2));
+        assert_ne!(fa1, fa2);
+        assert_ne!(fa1, draw(&mut a));
     }
 
     #[test]
