@@ -316,7 +316,11 @@ pub fn simulate_on(
         }
     }
     let (sabine_s, eyring_s) = reverberation_times(volume_m3, &areas, &absorption, &air_per_m, c);
-    let splitting = (settings.split_copies > 1).then(|| {
+    // Copies part ways only where a surface scatters: in a purely specular room they would
+    // retrace their ray's path (and there a ray's energy follows its direction's reflection
+    // rate, so many would split).
+    let scatters = surfaces.iter().any(|s| s.scattering.iter().any(|&x| x > 0.0));
+    let splitting = (settings.split_copies > 1 && scatters).then(|| {
         let total_area: f64 = areas.iter().sum();
         let per_reflection_m = total_area / (4.0 * volume_m3);
         Splitting {
