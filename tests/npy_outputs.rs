@@ -201,3 +201,59 @@ fn a_render_to_npy_holds_the_exr_values_as_height_width_channel() {
     assert_eq!(npy, img.layer_data.channel_data.pixels);
     assert!(npy.iter().any(|&v| v > 0.0));
 }
+
+#[test]
+fn acoustic_npy_twins_hold_the_histogram_and_the_metrics() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o");
+    let (ok, _, err) =
+        propsim(&["acoustic", "builtin:shoebox", "--rays", "5000", "--out", out.to_str().unwrap()]);
+    assert!(ok, "{err}");
+    // histogram.npy: (pairs, bands, bins) J/m^2; the CSV has a row per pair and bin.
+    let (shape, h) = read_npy_f64(&out.join("histogram.npy"));
+    let rows = csv_rows(&out.join("histogram.csv"));
+    assert_eq!(shape[..2], [1, 8]);
+    assert_eq!(shape[2], rows.len(), "one pair: as many bins as rows");
+    let bands = ["63", "125", "250", "500", "1000", "2000", "4000", "8000"];
+    let mut energy = 0.0;
+    for (k, row) in rows.iter().enumerate() {
+        for (b, f) in bands.iter().enumerate() {
+            let (csv, npy) = (number(&row[&format!("energy_{f}hz_j_per_m2")]), h[b * shape[2] + k]);
+            assert!((csv - npy).abs() <= 1e-6 * npy.abs() + 1e-300, "bin {k} band {f}: {csv} vs {npy}");
+            energy += npy;
+        }
+    }
+    assert!(energy > 0.0);
+    // metrics.npy: (pairs, bands, 15), the CSV's columns after source, receiver and band_hz.
+    let (shape, m) = read_npy_f64(&out.join("metrics.npy"));
+    assert_eq!(shape, vec![1, 8, 15]);
+    let rows = csv_rows(&out.join("metrics.csv"));
+    let columns: [(&str, i32); 15] = [
+        ("edt_s", 4),
+        ("t20_s", 4),
+        ("t30_s", 4),
+        ("c50_db", 3),
+        ("c80_db", 3),
+        ("d50", 4),
+        ("ts_ms", 2),
+        ("g_db", 2),
+        ("dynamic_range_db", 1),
+        ("truncation_s", 3),
+        ("t20_r", 5),
+        ("t30_r", 5),
+        ("t20_xi_permille", 2),
+        ("t30_xi_permille", 2),
+        ("curvature_percent", 1),
+    ];
+    assert_eq!(rows.len(), 8);
+    let mut measured = 0;
+    for (b, row) in rows.iter().enumerate() {
+        for (c, (name, digits)) in columns.iter().enumerate() {
+            let npy = m[b * 15 + c];
+            let tolerance = 0.5 * 10f64.powi(-digits) + 1e-12 * npy.abs();
+            assert!(same(number(&row[*name]), npy, tolerance), "band {b} {name}: {} vs {npy}", row[*name]);
+            measured += usize::from(npy.is_finite());
+        }
+    }
+    assert!(measured > 60, "{measured} of 120 metrics measured");
+}

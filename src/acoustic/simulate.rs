@@ -147,6 +147,25 @@ pub struct AcousticResult {
     pub settings: AcousticSettings,
 }
 
+impl AcousticResult {
+    /// Every pair's energy histogram as one array of shape (pairs, bands, bins): energy
+    /// fluence, J/m^2, per bin of `bin_s` seconds, pairs in the order of `pairs` and bands of
+    /// `bands_hz`; a pair whose histogram is shorter than the longest is padded with zeros.
+    /// `histogram.npy` holds it.
+    pub fn histogram_array(&self) -> ndarray::Array3<f64> {
+        let bins = self.pairs.iter().map(|p| p.histogram.len()).max().unwrap_or(0);
+        let mut a = ndarray::Array3::zeros((self.pairs.len(), BAND_COUNT, bins));
+        for (i, p) in self.pairs.iter().enumerate() {
+            for (k, bin) in p.histogram.iter().enumerate() {
+                for (b, &e) in bin.iter().enumerate() {
+                    a[[i, b, k]] = e;
+                }
+            }
+        }
+        a
+    }
+}
+
 /// The scene file's acoustic sources and receivers, with 1 W where a source gives no power
 /// and the default radius rule where a receiver gives none.
 pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {

@@ -139,6 +139,38 @@ pub fn extrapolated_bands(world: &World) -> [bool; BAND_COUNT] {
     })
 }
 
+/// The numbers of `metrics.csv` as an array of shape (pairs, bands, 15): the columns of
+/// [`METRICS_COLUMNS`] after `source`, `receiver` and `band_hz`, unrounded, NaN where the CSV
+/// is empty. `metrics.npy` holds it.
+pub fn metrics_array(result: &AcousticResult) -> ndarray::Array3<f64> {
+    let value = |v: Option<f64>| v.unwrap_or(f64::NAN);
+    ndarray::Array3::from_shape_fn(
+        (result.pairs.len(), BAND_COUNT, METRICS_COLUMNS.len() - 3),
+        |(i, b, c)| {
+            let m = &result.pairs[i].metrics[b];
+            value(
+                [
+                    m.edt_s,
+                    m.t20_s,
+                    m.t30_s,
+                    m.c50_db,
+                    m.c80_db,
+                    m.d50,
+                    m.ts_ms,
+                    m.g_db,
+                    m.dynamic_range_db,
+                    m.truncation_s,
+                    m.t20_r,
+                    m.t30_r,
+                    m.t20_xi_permille,
+                    m.t30_xi_permille,
+                    m.curvature_percent,
+                ][c],
+            )
+        },
+    )
+}
+
 /// Writes every output of `result` into `out`. `extrapolated[b]` marks the bands whose
 /// surface data is extrapolated (dashed in the decay plots).
 pub fn write_outputs(
@@ -204,6 +236,12 @@ pub fn write_outputs(
         Ok(())
     })?;
     written.push(hist_path);
+    for (name, array) in [("metrics.npy", metrics_array(result)), ("histogram.npy", result.histogram_array())]
+    {
+        let path = out.join(name);
+        crate::io::npy::write_npy(&path, &array)?;
+        written.push(path);
+    }
     use rayon::prelude::*;
     let per_pair: Vec<anyhow::Result<Vec<PathBuf>>> = result
         .pairs
