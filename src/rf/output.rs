@@ -417,24 +417,12 @@ pub fn write_cfr_csv(
 
 /// The columns of `paths.npy`: `paths.csv`'s numeric columns, the transmitter and receiver
 /// by index (in the order of the config), a zero-amplitude path's gain as NaN.
-pub const PATHS_NPY_COLUMNS: [&str; 11] = [
-    "transmitter",
-    "receiver",
-    "path",
-    "delay_s",
-    "amplitude_re",
-    "amplitude_im",
-    "gain_db",
-    "aod_azimuth_deg",
-    "aod_zenith_deg",
-    "aoa_azimuth_deg",
-    "aoa_zenith_deg",
-];
+pub const PATHS_NPY_COLUMNS: &[&str] = PATHS_CSV_COLUMNS.split_at(11).0;
 
 /// `paths.csv` as numbers: one row per path, [`PATHS_NPY_COLUMNS`], float64, in the rows'
 /// order of `paths.csv`. `paths.npy` holds it.
 pub fn paths_array(config: &RfConfig, result: &RfResult) -> ndarray::Array2<f64> {
-    let mut rows: Vec<[f64; 11]> = Vec::new();
+    let mut rows: Vec<[f64; PATHS_NPY_COLUMNS.len()]> = Vec::new();
     for (t, tr) in result.transmitters.iter().enumerate() {
         for (r, ps) in tr.receivers.iter().enumerate().take(config.receivers.len()) {
             for (k, p) in paths_by_delay(&ps.records).into_iter().enumerate() {
