@@ -27,7 +27,8 @@ pub struct RenderArgs {
     #[arg(default_value = DEFAULT_RENDER_SCENE)]
     pub scene: PathBuf,
     /// Output image; the extension picks the format: .png (8-bit sRGB, exposed and tone
-    /// mapped) or .exr (linear float radiance, untouched by --exposure and --tone-map).
+    /// mapped), .exr (linear float radiance, untouched by --exposure and --tone-map) or .npy
+    /// (the same linear values as float32, height x width x 3).
     #[arg(short = 'o', long = "output", default_value = "out/render.png")]
     pub output: PathBuf,
     /// Image width in pixels (default: the scene's, else 640).
