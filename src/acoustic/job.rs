@@ -140,9 +140,8 @@ pub fn execute(
     drop(counter);
     // Only rank 0 holds the result and writes.
     let Some(result) = result else { return Ok(None) };
-    let traced_s = started.elapsed().as_secs_f64();
     let files = match out {
-        Some(out) => write_all(out, world, plan, &result, scene_label, cluster, traced_s, started)?,
+        Some(out) => write_all(out, world, plan, &result, scene_label, cluster, started)?,
         None => Vec::new(),
     };
     report.say(summary_text(&result).trim_end());
