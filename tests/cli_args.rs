@@ -151,10 +151,10 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
     ]) else {
         panic!("not acoustic")
     };
-    assert_eq!(a.receivers, [[-0.993, 1.426, 1.23]]);
-    assert_eq!(a.sources, [[-1.0, 2.0, 3.0]]);
-    assert_eq!(a.temperature_c, Some(-5.0));
-    assert_eq!(a.rays, Some(10));
+    assert_eq!(a.options.receivers, [[-0.993, 1.426, 1.23]]);
+    assert_eq!(a.options.sources, [[-1.0, 2.0, 3.0]]);
+    assert_eq!(a.options.temperature_c, Some(-5.0));
+    assert_eq!(a.options.rays, Some(10));
     assert_eq!(a.scene.to_str(), Some("room.toml"));
 
     // A negative value, then the positional scene.
@@ -163,7 +163,7 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
         panic!("not acoustic")
     };
     assert_eq!(
-        (a.receivers, a.rays, a.scene.to_str()),
+        (a.options.receivers, a.options.rays, a.scene.to_str()),
         (vec![[-1.0, 2.0, 1.2]], Some(10), Some("room.toml"))
     );
 

@@ -3,6 +3,10 @@
 //! responses and ISO 3382-1 parameters.
 
 pub mod air;
+pub mod ambisonics;
+pub mod auralize;
+pub mod directions;
+pub mod directivity;
 pub mod image_source;
 pub mod impulse_response;
 pub mod metrics;
@@ -11,6 +15,7 @@ pub mod output;
 pub mod plan;
 pub mod room;
 pub mod simulate;
+pub mod spatial;
 pub mod tracer;
 
 pub use air::Air;
