@@ -17,6 +17,32 @@ pub const SPLIT: usize = 3;
 /// Direction cells: 6 faces of [`SPLIT`]^2.
 pub const CELLS: usize = 6 * SPLIT * SPLIT;
 
+/// The time bins of the directions of arrival, in histogram bins: `fine` bins each for the
+/// first `early` direction bins (the early part, whose directions matter most and change
+/// fastest), then `coarse` each (the late, near-diffuse part). Coarse late bins keep the
+/// directional record small enough to stay in cache while rays deposit into it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DirectionBins {
+    pub fine: usize,
+    pub early: usize,
+    pub coarse: usize,
+}
+
+impl DirectionBins {
+    /// The direction bin of histogram bin `bin`.
+    #[inline]
+    pub fn of(&self, bin: usize) -> usize {
+        let (fine, coarse) = (self.fine.max(1), self.coarse.max(1));
+        let split = self.early * fine;
+        if bin < split { bin / fine } else { self.early + (bin - split) / coarse }
+    }
+
+    /// Direction bins covering `bins` histogram bins.
+    pub fn count(&self, bins: usize) -> usize {
+        if bins == 0 { 0 } else { self.of(bins - 1) + 1 }
+    }
+}
+
 /// The cell of the direction `d` (need not be unit; zero or non-finite: cell 0).
 #[inline]
 pub fn cell_of(d: Vec3) -> usize {
@@ -55,6 +81,16 @@ pub fn direction_in(cell: usize, fu: f32, fv: f32) -> Vec3 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn direction_bins_are_fine_then_coarse() {
+        let d = DirectionBins { fine: 10, early: 20, coarse: 100 };
+        assert_eq!(
+            (d.of(0), d.of(9), d.of(10), d.of(199), d.of(200), d.of(299), d.of(300)),
+            (0, 0, 1, 19, 20, 20, 21)
+        );
+        assert_eq!((d.count(0), d.count(1), d.count(200), d.count(201), d.count(1150)), (0, 1, 20, 21, 30));
+    }
 
     #[test]
     fn cells_round_trip_and_cover_the_sphere() {

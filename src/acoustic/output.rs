@@ -207,7 +207,7 @@ fn write_pair(
                 histogram: &p.histogram,
                 bin_s: result.bin_s,
                 directions: &p.directions,
-                per_direction_bin: settings.bins_per_direction_bin(),
+                direction_bins: settings.direction_bins(),
                 image_sources: &p.image_sources,
                 speed_m_s: result.speed_of_sound_m_s,
             };

@@ -5,7 +5,7 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::air::Air;
-use super::directions::CELLS;
+use super::directions::{CELLS, DirectionBins};
 use super::directivity::Directivity;
 use super::image_source::{Arrival, specular_arrivals_from};
 use super::metrics::{BandMetrics, band_metrics_for_source, pair_warnings};
@@ -101,9 +101,16 @@ pub struct AcousticSettings {
 }
 
 /// Length of the direction bins, s: the directional energy is kept in bins of about 10 ms
-/// (docs/acoustics.md, Directions of arrival), enough to follow how the directions of the
-/// late sound change, and a tenth of the memory 1 ms bins would take.
+/// for the first [`DIRECTION_EARLY_S`] and of [`DIRECTION_LATE_BIN_S`] after it
+/// (docs/acoustics.md, Directions of arrival): fine where the early reflections' directions
+/// change, coarse in the near-diffuse tail, so that the record the rays deposit into stays
+/// small (with 10 ms bins throughout, BRAS CR2's 11 s decays made it 4 MB a receiver, and the
+/// deposits' cache misses cost 20 % of the run).
 pub const DIRECTION_BIN_S: f64 = 0.01;
+/// See [`DIRECTION_BIN_S`].
+pub const DIRECTION_EARLY_S: f64 = 0.2;
+/// See [`DIRECTION_BIN_S`].
+pub const DIRECTION_LATE_BIN_S: f64 = 0.1;
 
 impl AcousticSettings {
     /// Whether the simulation keeps directions of arrival.
@@ -111,9 +118,15 @@ impl AcousticSettings {
         self.ambisonic_order > 0 || self.binaural
     }
 
-    /// Histogram bins per direction bin ([`DIRECTION_BIN_S`] rounded to whole bins).
-    pub fn bins_per_direction_bin(&self) -> usize {
-        ((DIRECTION_BIN_S / self.bin_s).round() as usize).max(1)
+    /// The direction bins in histogram bins ([`DIRECTION_BIN_S`]).
+    pub fn direction_bins(&self) -> DirectionBins {
+        let bins = |s: f64| ((s / self.bin_s).round() as usize).max(1);
+        let fine = bins(DIRECTION_BIN_S);
+        DirectionBins {
+            fine,
+            early: (bins(DIRECTION_EARLY_S) / fine).max(1),
+            coarse: bins(DIRECTION_LATE_BIN_S),
+        }
     }
 }
 
@@ -158,7 +171,7 @@ pub struct PairResult {
     #[serde(skip)]
     pub listener: Listener,
     /// Directions of arrival (empty unless [`AcousticSettings::keeps_directions`]): the rays'
-    /// energy fluence per direction bin (`bins_per_direction_bin` histogram bins), direction
+    /// energy fluence per direction bin ([`AcousticSettings::direction_bins`]), direction
     /// cell ([`super::directions`]) and band, J/m^2, at index `bin * CELLS + cell`, before air
     /// absorption (it is used for the share of each direction in a bin, which air absorption,
     /// a function of time alone, does not change).
@@ -475,7 +488,7 @@ pub fn simulate_on(
             splitting,
             rain_in_view: &rain_in_view,
             directivity,
-            directions: settings.keeps_directions().then(|| settings.bins_per_direction_bin()),
+            directions: settings.keeps_directions().then(|| settings.direction_bins()),
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),
@@ -530,8 +543,7 @@ pub fn simulate_on(
         let mut detections = record.detections.clone();
         drop(record.fixed);
         // The directions, summed like the histograms over the bins every process shares.
-        let per_dir = settings.bins_per_direction_bin();
-        let dir_bins = if settings.keeps_directions() { bins.div_ceil(per_dir) } else { 0 };
+        let dir_bins = if settings.keeps_directions() { settings.direction_bins().count(bins) } else { 0 };
         let mut dir_fixed = vec![0u128; receivers.len() * dir_bins * CELLS * BAND_COUNT];
         for (r, dirs) in record.dir_fixed.iter().enumerate() {
             for (k, e) in dirs.iter().enumerate().take(dir_bins * CELLS) {

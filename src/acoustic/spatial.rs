@@ -20,7 +20,7 @@
 use glam::{DVec3, Vec3};
 
 use super::ambisonics::{channels, sh_sn3d};
-use super::directions::{CELLS, direction_in};
+use super::directions::{CELLS, DirectionBins, direction_in};
 use super::image_source::Arrival;
 use super::impulse_response::SAMPLE_RATE_HZ;
 use crate::core::rng::{stream, uniform};
@@ -71,8 +71,8 @@ pub struct PairDirections<'a> {
     pub bin_s: f64,
     /// The rays' energy per direction bin, cell and band (index `bin * CELLS + cell`).
     pub directions: &'a [[f64; BAND_COUNT]],
-    /// Histogram bins per direction bin.
-    pub per_direction_bin: usize,
+    /// The direction bins in histogram bins.
+    pub direction_bins: DirectionBins,
     /// The image-source arrivals with their exact directions.
     pub image_sources: &'a [Arrival],
     pub speed_m_s: f64,
@@ -123,14 +123,16 @@ pub fn segment_directions(
             .map(|a| (a.energy[b], Some(DVec3::from(a.incoming)), 0))
             .collect();
         let mut cells = [0.0f64; CELLS];
+        let mut shares = [0.0f64; CELLS];
         for (k, ism_k) in ism.iter().enumerate().take(k1).skip(k0) {
             let rays = (p.histogram[k][b] - ism_k).max(0.0);
             if rays <= 0.0 {
                 continue;
             }
-            let db = k / p.per_direction_bin.max(1);
-            let shares: Vec<f64> =
-                (0..CELLS).map(|c| p.directions.get(db * CELLS + c).map_or(0.0, |e| e[b].max(0.0))).collect();
+            let db = p.direction_bins.of(k);
+            for (c, s) in shares.iter_mut().enumerate() {
+                *s = p.directions.get(db * CELLS + c).map_or(0.0, |e| e[b].max(0.0));
+            }
             let total: f64 = shares.iter().sum();
             for (c, s) in cells.iter_mut().zip(&shares) {
                 // No directional record there: the energy is taken as diffuse.
@@ -185,11 +187,18 @@ pub fn ambisonic(
         for (start, end, dir) in segments {
             let gains = sh_sn3d(listener.to_head(dir), order);
             let before = previous.clone().unwrap_or_else(|| gains.clone());
-            for n in start..end {
+            // The cross-fade, then the steady part channel by channel (a contiguous loop the
+            // compiler vectorises).
+            let fade_end = (start + ((end - start) / 4).max(1)).min(end);
+            for (n, &v) in band.iter().enumerate().take(fade_end).skip(start) {
                 let w = fade_in(n, start, end - start);
-                let v = band[n];
                 for (k, ch) in out.iter_mut().enumerate() {
                     ch[n] += v * ((1.0 - w) * before[k] + w * gains[k]);
+                }
+            }
+            for (ch, &g) in out.iter_mut().zip(&gains) {
+                for (o, &v) in ch[fade_end..end].iter_mut().zip(&band[fade_end..end]) {
+                    *o += v * g;
                 }
             }
             previous = Some(gains);
@@ -306,7 +315,7 @@ mod tests {
             histogram: hist,
             bin_s: 1e-3,
             directions: &[],
-            per_direction_bin: 10,
+            direction_bins: DirectionBins { fine: 10, early: 20, coarse: 100 },
             image_sources: arrivals,
             speed_m_s: 343.0,
         }

@@ -4,7 +4,7 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
-use super::directions::{CELLS, cell_of};
+use super::directions::{CELLS, DirectionBins, cell_of};
 use super::directivity::Directivity;
 use crate::core::TimeBins;
 use crate::core::accel::Accel;
@@ -82,7 +82,9 @@ pub struct TraceRecord {
     /// energy per direction bin, direction cell ([`super::directions`]) and band, at index
     /// `direction_bin * CELLS + cell`; the block's f64 sums and the fixed-point total, merged
     /// like the histograms (so just as independent of threads and processes).
-    pub dir_block: Vec<Vec<[f64; BAND_COUNT]>>,
+    /// (The block's sums are f32: half the memory, so the record stays in cache; directions
+    /// are used as shares of a bin's energy, which f32 sums of a block keep to 1e-6.)
+    pub dir_block: Vec<Vec<[f32; BAND_COUNT]>>,
     pub dir_fixed: Vec<Vec<[u128; BAND_COUNT]>>,
 }
 
@@ -105,7 +107,7 @@ impl TraceRecord {
                 dirs.resize((slot / CELLS + 1) * CELLS, [0.0; BAND_COUNT]);
             }
             for (h, e) in dirs[slot].iter_mut().zip(energy) {
-                *h += f64::from(*e);
+                *h += *e;
             }
         }
     }
@@ -149,9 +151,9 @@ pub struct SoundPropagation<'a> {
     /// normalised energy weight in its launch direction (docs/acoustics.md, Directivity).
     /// `None`: omnidirectional.
     pub directivity: Option<Directivity>,
-    /// Directions of arrival: `Some(k)` keeps each receiver's energy per direction cell in
-    /// bins of `k` histogram bins ([`TraceRecord::dir_fixed`]); `None` keeps none (no cost).
-    pub directions: Option<usize>,
+    /// Directions of arrival: `Some(bins)` keeps each receiver's energy per direction cell in
+    /// those time bins ([`TraceRecord::dir_fixed`]); `None` keeps none (no cost).
+    pub directions: Option<DirectionBins>,
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -196,7 +198,9 @@ impl Propagation for SoundPropagation<'_> {
             }
             for (t, e) in total.iter_mut().zip(block) {
                 for (slot, v) in t.iter_mut().zip(e) {
-                    add_fixed(slot, *v, unit);
+                    if *v != 0.0 {
+                        add_fixed(slot, f64::from(*v), unit);
+                    }
                 }
             }
             for (t, e) in total.iter_mut().zip(fixed) {
@@ -310,7 +314,7 @@ impl Propagation for SoundPropagation<'_> {
             let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
             let energy = ray_state.energy.map(|e| e * per_volume);
             // The sound comes from where the ray came from.
-            let direction = self.directions.map(|k| bin / k * CELLS + cell_of(-ray.dir));
+            let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-ray.dir));
             acc.deposit(i, bin, &energy, direction);
         }
     }
@@ -446,7 +450,7 @@ impl SoundPropagation<'_> {
                 energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;
             }
             // The rain comes from the hit point.
-            let direction = self.directions.map(|k| bin / k * CELLS + cell_of(-to));
+            let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-to));
             acc.deposit(i, bin, &energy, direction);
         }
     }
