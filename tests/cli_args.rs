@@ -172,7 +172,10 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
     else {
         panic!("not render")
     };
-    assert_eq!((r.eye, r.target, r.fov_deg), (Some([-4.0, 0.0, 1.0]), Some([0.0, -2.5, -0.1]), Some(-3.0)));
+    assert_eq!(
+        (r.options.eye, r.options.target, r.options.fov_deg),
+        (Some([-4.0, 0.0, 1.0]), Some([0.0, -2.5, -0.1]), Some(-3.0))
+    );
 
     let Command::Rf(f) = parse(&[
         "rf",
@@ -187,7 +190,7 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
         panic!("not rf")
     };
     assert_eq!(
-        (f.grid_min, f.grid_max, f.tx_power_dbm),
+        (f.options.grid_min, f.options.grid_max, f.options.tx_power_dbm),
         (Some([-90.0, -60.0]), Some([-10.0, -5.0]), Some(-7.5))
     );
 

@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context as _;
-use clap::{Args, Parser, ValueEnum};
+use clap::{Args, ValueEnum};
 use image::{GenericImage, RgbImage};
 
 use crate::dist::Cluster;
@@ -102,16 +102,6 @@ pub struct RunArgs {
     pub rf_rays: Option<u64>,
 }
 
-/// Parses the command line of one subcommand, so that `run` uses exactly the same defaults
-/// and checks as the individual commands.
-fn parse(args: Vec<String>) -> anyhow::Result<super::Command> {
-    let cli = super::Cli::try_parse_from(args).map_err(|e| {
-        let text = e.to_string();
-        anyhow::anyhow!("{}", text.lines().next().unwrap_or("invalid arguments").trim())
-    })?;
-    Ok(cli.command)
-}
-
 /// What became of one part.
 #[derive(Clone, Debug, PartialEq)]
 enum Outcome {
@@ -171,8 +161,8 @@ fn note(part: Part, outcome: &Outcome) {
 /// Image size of `--quick`: the scene's (else the default) scaled down to [`QUICK_WIDTH`].
 fn quick_size(world: &World) -> (u32, u32) {
     let desc = world.scene.desc.render.clone().unwrap_or_default();
-    let w = desc.width.unwrap_or(super::render::DEFAULT_SIZE.0).max(1);
-    let h = desc.height.unwrap_or(super::render::DEFAULT_SIZE.1).max(1);
+    let w = desc.width.unwrap_or(crate::render::options::DEFAULT_SIZE.0).max(1);
+    let h = desc.height.unwrap_or(crate::render::options::DEFAULT_SIZE.1).max(1);
     if w <= QUICK_WIDTH {
         return (w, h);
     }
@@ -248,31 +238,6 @@ fn panel(part: Part, outcome: &Outcome, path: Option<&Path>, size: (u32, u32)) -
     text_panel(&format!("{} part {}", part.name(), outcome.word()), &why, size)
 }
 
-/// `propsim CMD SCENE OUTPUT_FLAG OUTPUT --seed S [--materials F]... EXTRA...`, parsed.
-fn sub_args(
-    args: &RunArgs,
-    cmd: &str,
-    out_flag: &str,
-    out: &Path,
-    extra: &[String],
-) -> anyhow::Result<super::Command> {
-    let mut v: Vec<String> = vec![
-        "propsim".into(),
-        cmd.into(),
-        args.scene.display().to_string(),
-        out_flag.into(),
-        out.display().to_string(),
-        "--seed".into(),
-        args.seed.to_string(),
-    ];
-    for m in &args.materials {
-        v.extend(["--materials".to_string(), m.display().to_string()]);
-    }
-    v.extend(args.model.words());
-    v.extend(extra.iter().cloned());
-    parse(v)
-}
-
 /// The files a part wrote (on rank 0), in the order it wrote them.
 #[derive(Default)]
 struct Written {
@@ -311,20 +276,19 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let render_png = args.out.join("render.png");
     let render_plan = if selected(Part::Render) {
         let (qw, qh) = quick_size(&world);
-        let mut extra = Vec::new();
-        let mut flag = |name: &str, v: Option<String>| {
-            if let Some(v) = v {
-                extra.extend([name.to_string(), v]);
-            }
-        };
         let quick = |v: u32| args.quick.then_some(v);
-        flag("--width", args.width.or(quick(qw)).map(|v| v.to_string()));
-        flag("--height", args.height.or(quick(qh)).map(|v| v.to_string()));
-        flag("--spp", args.spp.or(quick(QUICK_SPP)).map(|v| v.to_string()));
-        let super::Command::Render(rargs) = sub_args(args, "render", "-o", &render_png, &extra)? else {
-            anyhow::bail!("internal error: the render arguments parsed as another command");
+        let options = crate::render::RenderOptions {
+            width: args.width.or(quick(qw)),
+            height: args.height.or(quick(qh)),
+            spp: args.spp.or(quick(QUICK_SPP)),
+            seed: args.seed,
+            ..Default::default()
         };
-        Some(super::render::plan(&rargs, &world)?)
+        let plan = crate::render::options::plan(&world, &options, &scene_label)?;
+        for w in &plan.warnings {
+            tell!("warning: {w}");
+        }
+        Some(plan)
     } else {
         None
     };
@@ -353,27 +317,21 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
         None
     };
     let rf_plan = if selected(Part::Rf) {
-        let mut extra = Vec::new();
-        if let Some(r) = args.rf_rays.or(args.quick.then_some(QUICK_RF_RAYS)) {
-            extra.extend(["--rays".to_string(), r.to_string()]);
-        }
-        if let Some([x, y, z]) = args.tx {
-            extra.push(format!("--tx={x},{y},{z}"));
-        }
-        if args.extrapolate {
-            extra.push("--extrapolate".into());
-        }
-        let super::Command::Rf(rargs) = sub_args(args, "rf", "--out", &args.out, &extra)? else {
-            anyhow::bail!("internal error: the rf arguments parsed as another command");
+        let options = crate::rf::RfOptions {
+            rays: args.rf_rays.or(args.quick.then_some(QUICK_RF_RAYS)),
+            tx: args.tx,
+            extrapolate: args.extrapolate,
+            seed: Some(args.seed),
+            ..Default::default()
         };
-        let config = crate::rf::RfConfig::from_scene(&world, &rargs.overrides())
+        let config = crate::rf::RfConfig::from_scene(&world, &options)
             .and_then(|c| crate::rf::check(&world, &c).map(|()| c));
         match config {
             Ok(c) => {
                 if let Some(why) = crate::rf::grid_misses_model(&world, &c) {
                     tell!("warning: {scene_label}: {why}");
                 }
-                Some((rargs, c))
+                Some(c)
             }
             Err(e) => {
                 outcomes[2] = Outcome::Skipped(skip_reason(Part::Rf, &format!("{scene_label}: {e}")));
@@ -393,7 +351,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
 
     // The parts that can run, each failure a note.
     let mut written = [Written::default(), Written::default(), Written::default()];
-    if let Some((settings, camera)) = &render_plan {
+    if let Some(crate::render::RenderPlan { settings, camera, .. }) = &render_plan {
         let t = Instant::now();
         match super::render::execute(&world, settings, camera, &render_png, cluster) {
             Ok(wrote) => {
@@ -421,9 +379,9 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
             }
         }
     }
-    if let Some((rargs, config)) = &rf_plan {
+    if let Some(config) = &rf_plan {
         let t = Instant::now();
-        match run_rf(&world, rargs, config, &scene_label, cluster) {
+        match run_rf(&world, &args.out, config, &scene_label, cluster) {
             Ok(files) => {
                 written[2].files = files;
                 outcomes[2] = Outcome::Ran(t.elapsed().as_secs_f64());
@@ -511,7 +469,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
             "tx": args.tx,
             "extrapolate": args.extrapolate,
             "camera": desc.camera,
-            "render": render_plan.as_ref().map(|(s, _)| serde_json::json!({
+            "render": render_plan.as_ref().map(|p| &p.settings).map(|s| serde_json::json!({
                 "width": s.width, "height": s.height, "spp": s.spp, "max_depth": s.max_depth,
                 "integrator": s.integrator.name(),
             })),
@@ -520,7 +478,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
             "acoustic": desc.acoustic,
             "acoustic_rays": acoustic_plan.as_ref().map(|p| p.settings.rays),
             "rf": desc.rf,
-            "rf_rays": rf_plan.as_ref().map(|(_, c)| c.rays),
+            "rf_rays": rf_plan.as_ref().map(|c| c.rays),
             "details": details,
         },
         "timings_s": {
@@ -562,7 +520,7 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
 /// map's one-line summary; returns the files written.
 fn run_rf(
     world: &World,
-    rargs: &super::rf::RfArgs,
+    out: &Path,
     config: &crate::rf::RfConfig,
     scene_label: &str,
     cluster: &Cluster,
@@ -572,7 +530,11 @@ fn run_rf(
         .with_context(|| scene_label.to_string())?;
     bar.finish_and_clear();
     let Some(result) = result else { return Ok(Vec::new()) };
-    let s = super::rf::write_outputs(&rargs.out, scene_label, world, config, &result, rargs.png_width)?;
-    say!("{}; wrote {} files", super::rf::map_line(scene_label, config, &s, result.seconds), s.outputs.len());
+    let s = crate::rf::output::write_outputs(out, scene_label, world, config, &result)?;
+    say!(
+        "{}; wrote {} files",
+        crate::rf::output::map_line(scene_label, config, &s, result.seconds),
+        s.outputs.len()
+    );
     Ok(s.outputs.iter().map(PathBuf::from).collect())
 }

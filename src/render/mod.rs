@@ -23,6 +23,7 @@ pub mod distributed;
 pub mod film;
 pub mod lanes;
 pub mod lights;
+pub mod options;
 pub mod path;
 pub mod raycast;
 pub mod sampler;
@@ -49,6 +50,7 @@ pub use bsdf::Bsdf;
 pub use camera::Camera;
 pub use film::Film;
 pub use lights::{Light, Lights};
+pub use options::{RenderOptions, RenderPlan};
 
 /// Random-stream domain of the per-pixel streams (see [`crate::core::rng::stream`]).
 pub const PIXEL_DOMAIN: u64 = 0x5245_4e44; // "REND"
