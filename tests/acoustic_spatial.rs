@@ -84,10 +84,17 @@ fn the_directional_record_holds_the_rays_energy_and_the_direct_sound_decodes_to_
     };
     let bands = synthesize_bands(&p.histogram, r.bin_s, r.volume_m3, r.speed_of_sound_m_s, 1);
     let amb = ambisonic(&directions, &bands, 3, &Listener::default(), 1);
-    let peak = (0..amb[0].len()).max_by(|&i, &j| amb[0][i].abs().total_cmp(&amb[0][j].abs())).unwrap();
-    let found = steer_peak(&amb.iter().map(|c| f64::from(c[peak])).collect::<Vec<_>>());
+    // The direct sound's 1 ms: the channels' correlation with W over it, sum_n W(n) c_k(n),
+    // is Y_k(u) sum W^2 for a plane wave from u.
+    let onset = (p.direct_s / r.bin_s) as usize * 48;
+    let snapshot: Vec<f64> = amb
+        .iter()
+        .map(|c| (onset..onset + 48).map(|n| f64::from(amb[0][n]) * f64::from(c[n])).sum())
+        .collect();
+    let found = steer_peak(&snapshot);
     let want = (glam::Vec3::from(src) - glam::Vec3::from(rcv)).as_dvec3().normalize();
     let err = found.dot(want).clamp(-1.0, 1.0).acos().to_degrees();
+    eprintln!("direct sound decoded {err:.3} degrees from the source");
     assert!(err < 2.0, "direct sound decoded {err} degrees from the source");
     // The late part is spread over the sphere: the first-order channels carry energy.
     let late = |c: &[f32]| c[(0.3 * 48_000.0) as usize..].iter().map(|v| f64::from(*v).powi(2)).sum::<f64>();
