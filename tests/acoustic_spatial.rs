@@ -99,7 +99,7 @@ fn the_directional_record_holds_the_rays_energy_and_the_direct_sound_decodes_to_
     // The late part is spread over the sphere: the first-order channels carry energy.
     let late = |c: &[f32]| c[(0.3 * 48_000.0) as usize..].iter().map(|v| f64::from(*v).powi(2)).sum::<f64>();
     let w = late(&amb[0]);
-    for k in 1..4 {
-        assert!(late(&amb[k]) > 0.05 * w, "channel {k}: {} of W's {w}", late(&amb[k]));
+    for (k, channel) in amb.iter().enumerate().take(4).skip(1) {
+        assert!(late(channel) > 0.05 * w, "channel {k}: {} of W's {w}", late(channel));
     }
 }
