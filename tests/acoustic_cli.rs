@@ -209,3 +209,21 @@ fn auralize_convolves_any_response_and_errors_name_the_file() {
         &["cd.wav", "44100"],
     );
 }
+
+#[test]
+fn a_bad_sofa_file_is_a_one_line_error_naming_it_before_any_ray() {
+    let dir = tempfile::tempdir().unwrap();
+    let junk = dir.path().join("junk.sofa");
+    std::fs::write(&junk, b"not an HDF5 file").unwrap();
+    let out = dir.path().join("o");
+    assert_clean_error(
+        &["acoustic", "builtin:shoebox", "--hrtf", junk.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        &["junk.sofa", "SOFA"],
+    );
+    assert!(!out.exists(), "nothing is written");
+    let missing = dir.path().join("missing.sofa");
+    assert_clean_error(
+        &["acoustic", "builtin:shoebox", "--hrtf", missing.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        &["missing.sofa", "not found"],
+    );
+}

@@ -7,6 +7,7 @@ pub mod ambisonics;
 pub mod auralize;
 pub mod directions;
 pub mod directivity;
+pub mod hrtf;
 pub mod image_source;
 pub mod impulse_response;
 pub mod metrics;

@@ -73,6 +73,10 @@ pub struct AcousticOptions {
     /// head, Duda and Martens 1998).
     #[arg(long)]
     pub binaural: bool,
+    /// Binaural responses from this SOFA file's measured HRIRs instead of the spherical head
+    /// (implies --binaural; per band gains and delays, docs/acoustics.md).
+    #[arg(long, value_name = "FILE.sofa")]
+    pub hrtf: Option<std::path::PathBuf>,
 }
 
 /// Highest image-source order: the number of image sources grows as (planes)^order.
@@ -100,6 +104,7 @@ impl Default for AcousticOptions {
             orientation: None,
             ambisonic_order: 0,
             binaural: false,
+            hrtf: None,
         }
     }
 }

@@ -9,7 +9,7 @@ use anyhow::Context as _;
 
 use super::impulse_response::{SAMPLE_RATE_HZ, sum_bands, synthesize, synthesize_bands};
 use super::metrics::decay_curve;
-use super::spatial::{PairDirections, ambisonic, binaural};
+use super::spatial::{Head, PairDirections, ambisonic, binaural};
 use super::{AcousticResult, Plan};
 use crate::dist::Cluster;
 use crate::io::atomic::write_atomically;
@@ -220,7 +220,12 @@ fn write_pair(
                 written.push(path);
             }
             if settings.binaural {
-                let ears = binaural(&directions, bands, &listener, pair_seed);
+                let table = match &settings.hrtf {
+                    Some(path) => Some(super::hrtf::load_sofa_cached(path).map_err(anyhow::Error::msg)?),
+                    None => None,
+                };
+                let head = table.as_deref().map_or(Head::Sphere, Head::Measured);
+                let ears = binaural(&directions, bands, &listener, &head, pair_seed);
                 let path = out.join(format!("brir_{stem}.wav"));
                 wav::write_f32(&path, &ears, SAMPLE_RATE_HZ)?;
                 written.push(path);

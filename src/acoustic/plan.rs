@@ -135,7 +135,8 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
         roulette_db: options.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
         split_copies: if options.no_splitting { 1 } else { AcousticSettings::default().split_copies },
         ambisonic_order: options.ambisonic_order,
-        binaural: options.binaural,
+        binaural: options.binaural || options.hrtf.is_some(),
+        hrtf: options.hrtf.clone(),
         ..Default::default()
     };
     anyhow::ensure!(
@@ -143,6 +144,10 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
         "--ism-order {}: at most {MAX_ISM_ORDER}",
         options.ism_order
     );
+    // A bad SOFA file is refused before any ray is traced (the table is kept for the writers).
+    if let Some(path) = &options.hrtf {
+        crate::acoustic::hrtf::load_sofa_cached(path).map_err(anyhow::Error::msg)?;
+    }
     crate::acoustic::check_points(world, &sources, &receivers)
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     Ok(Plan { sources, receivers, settings, notes })

@@ -96,8 +96,10 @@ pub struct AcousticSettings {
     /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
     /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
     pub ambisonic_order: u32,
-    /// Whether to make binaural impulse responses (the built-in spherical head).
+    /// Whether to make binaural impulse responses (the built-in spherical head, or `hrtf`).
     pub binaural: bool,
+    /// A SOFA file of measured HRIRs for the binaural responses (`None`: the spherical head).
+    pub hrtf: Option<std::path::PathBuf>,
 }
 
 /// Length of the direction bins, s: the directional energy is kept in bins of about 10 ms
@@ -146,6 +148,7 @@ impl Default for AcousticSettings {
             split_copies: SPLIT_COPIES,
             ambisonic_order: 0,
             binaural: false,
+            hrtf: None,
         }
     }
 }

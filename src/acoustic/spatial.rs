@@ -21,6 +21,7 @@ use glam::{DVec3, Vec3};
 
 use super::ambisonics::{channels, sh_sn3d};
 use super::directions::{CELLS, DirectionBins, direction_in};
+use super::hrtf::EarTable;
 use super::image_source::Arrival;
 use super::impulse_response::SAMPLE_RATE_HZ;
 use crate::core::rng::{stream, uniform};
@@ -235,6 +236,15 @@ pub fn head_ear(theta: f64, f_hz: f64, speed_m_s: f64) -> (f64, f64) {
     (gain, delay + a_c)
 }
 
+/// The head of the binaural response.
+#[derive(Clone, Copy, Debug)]
+pub enum Head<'a> {
+    /// The built-in spherical head ([`head_ear`]).
+    Sphere,
+    /// A measured head from a SOFA file: per band gains and delays ([`EarTable`]).
+    Measured(&'a EarTable),
+}
+
 /// Adds `v` at the fractional sample position `x` of `out` (linear interpolation, split
 /// between the two neighbouring samples; nothing outside).
 #[inline]
@@ -254,7 +264,13 @@ fn splat(out: &mut [f64], x: f64, v: f64) {
 /// reaches each ear delayed and scaled by the head's response at the band's centre
 /// frequency in the segment's direction (during a cross-fade, the sample is shared between
 /// the two segments' delays and gains).
-pub fn binaural(p: &PairDirections, bands: &[Vec<f64>], listener: &Listener, seed: u64) -> [Vec<f32>; 2] {
+pub fn binaural(
+    p: &PairDirections,
+    bands: &[Vec<f64>],
+    listener: &Listener,
+    head: &Head,
+    seed: u64,
+) -> [Vec<f32>; 2] {
     let samples = bands.first().map_or(0, Vec::len);
     let fs = f64::from(SAMPLE_RATE_HZ);
     let mut ears = [vec![0.0f64; samples], vec![0.0f64; samples]];
@@ -269,7 +285,10 @@ pub fn binaural(p: &PairDirections, bands: &[Vec<f64>], listener: &Listener, see
                 let (g, t) = head_ear(d.dot(axis).clamp(-1.0, 1.0).acos(), f_hz, p.speed_m_s);
                 (g, t * fs)
             };
-            let now = [ear(DVec3::Y), ear(-DVec3::Y)];
+            let now = match head {
+                Head::Sphere => [ear(DVec3::Y), ear(-DVec3::Y)],
+                Head::Measured(table) => table.ears(d, b),
+            };
             let before = previous.unwrap_or(now);
             for (m, &v) in band.iter().enumerate().take(end).skip(start) {
                 let w = fade_in(m, start, end - start);
@@ -392,7 +411,7 @@ mod tests {
             let (hist, arrivals) = plane_wave(dir(phi_deg, 0.0));
             let p = pair(&hist, &arrivals);
             let bands = synthesize_bands(&hist, 1e-3, 100.0, 343.0, 13);
-            let [l, r] = binaural(&p, &bands, &Listener::default(), 1);
+            let [l, r] = binaural(&p, &bands, &Listener::default(), &Head::Sphere, 1);
             let xcorr = |lag: i64| -> f64 {
                 (0..l.len() as i64)
                     .filter_map(|n| {
