@@ -10,18 +10,18 @@ pub mod directivity;
 pub mod hrtf;
 pub mod image_source;
 pub mod impulse_response;
+pub mod job;
 pub mod metrics;
 pub mod options;
 pub mod output;
-pub mod plan;
 pub mod room;
 pub mod simulate;
 pub mod spatial;
 pub mod tracer;
 
 pub use air::Air;
+pub use job::{Plan, execute, plan};
 pub use options::AcousticOptions;
-pub use plan::{Plan, plan};
 pub use simulate::{
     AcousticResult, AcousticSettings, NO_AIR, PairResult, ReceiverSpec, SourceSpec, check, check_points,
     scene_points, simulate, simulate_on,

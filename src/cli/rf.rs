@@ -4,12 +4,10 @@
 use std::path::PathBuf;
 use std::time::Instant;
 
-use anyhow::Context as _;
 use clap::Args;
 
 use crate::dist::Cluster;
-use crate::rf::output::{map_line, write_outputs};
-use crate::rf::{RfConfig, RfOptions, simulate, simulate_on};
+use crate::rf::{RfConfig, RfOptions, simulate};
 
 #[derive(Args, Debug, Clone)]
 pub struct RfArgs {
@@ -31,59 +29,40 @@ pub struct RfArgs {
 pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let world = super::load_world(&args.scene, &args.materials, &args.model)?;
     let scene_name = args.scene.display().to_string();
-    let config =
-        RfConfig::from_scene(&world, &args.options).map_err(|e| anyhow::anyhow!("{scene_name}: {e}"))?;
-    if let Some(why) = crate::rf::grid_misses_model(&world, &config) {
-        tell!("warning: {scene_name}: {why}");
+    let plan = crate::rf::job::plan(&world, &args.options, &scene_name)?;
+    for w in &plan.warnings {
+        tell!("warning: {w}");
     }
     // The output directory is checked before the (possibly long) simulation.
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.out, true)?;
     }
-    let bar = super::progress::bar(config.rays * config.transmitters.len() as u64, "rays");
-    let result =
-        simulate_on(cluster, &world, &config, &|n| bar.inc(n)).with_context(|| scene_name.clone())?;
-    bar.finish_and_clear();
-    // Only rank 0 holds the map and writes.
-    let Some(result) = result else { return Ok(()) };
-    let s = write_outputs(&args.out, &scene_name, &world, &config, &result)?;
-    let (csv, png, json) =
-        (args.out.join("coverage.csv"), args.out.join("coverage.png"), args.out.join("coverage.json"));
-    say!("{} ({:.2} Mrays/s)", map_line(&scene_name, &config, &s, result.seconds), s.rays_per_second / 1e6);
-    for r in &s.receivers {
-        let f = |v: Option<f64>| v.map_or("none".to_string(), |v| format!("{v:.2} dB"));
-        say!(
-            "  {} -> {}: {} paths, coherent {}, incoherent {}, grid cell {}",
-            r.transmitter,
-            r.name,
-            r.paths,
-            f(r.coherent_path_gain_db),
-            f(r.incoherent_path_gain_db),
-            f(r.grid_path_gain_db)
-        );
-    }
-    say!(
-        "wrote {}, {}, {}, {}",
-        csv.display(),
-        args.out.join("coverage.npy").display(),
-        png.display(),
-        json.display()
-    );
+    let done = crate::rf::job::execute(
+        &world,
+        &plan,
+        Some(&args.out),
+        &scene_name,
+        cluster,
+        &super::progress::Terminal,
+    )?;
+    let Some(done) = done else { return Ok(()) };
+    let config = &plan.config;
+    let names: Vec<String> = done
+        .files
+        .iter()
+        .filter_map(|f| f.file_name().map(|n| n.to_string_lossy().into_owned()))
+        .filter(|n| !n.starts_with("coverage_") && !n.starts_with("pdp_"))
+        .collect();
+    say!("wrote {} in {}", names.join(", "), args.out.display());
     if config.transmitters.len() > 1 {
         say!(
-            "wrote coverage_TX.png for each of {} transmitters and best_server.png in {}; coverage.csv has best_server, best_rx_power_dbm, sinr_db (noise {:.2} dBm) and rx_power_dbm_TX",
+            "wrote coverage_TX.png for each of {} transmitters; coverage.csv has best_server, best_rx_power_dbm, sinr_db (noise {:.2} dBm) and rx_power_dbm_TX",
             config.transmitters.len(),
-            args.out.display(),
             config.noise.noise_power_dbm
         );
     }
     if !config.receivers.is_empty() {
-        let cfr = if config.cfr.is_some() { ", cfr.csv, cfr.npy" } else { "" };
-        say!(
-            "wrote paths.csv, paths.npy, {} power-delay profile(s) pdp_*.png{cfr} in {}",
-            config.receivers.len(),
-            args.out.display()
-        );
+        say!("wrote a power-delay profile pdp_RECEIVER.png for each of {} receivers", config.receivers.len());
     }
     Ok(())
 }

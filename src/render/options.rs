@@ -1,9 +1,9 @@
 //! The render's options as a user gives them: the flags of `propsim render`, the keyword
 //! arguments of the Python module's `render()`, one type with one set of defaults (the scene
-//! file's `[render]` and `[camera]` tables fill what they leave out); and the pre-flight that
-//! turns them into checked settings and a camera.
+//! file's `[render]` and `[camera]` tables fill what they leave out), and how they become
+//! settings and a camera.
 
-use anyhow::{Context as _, anyhow};
+use anyhow::anyhow;
 use glam::Vec3;
 use serde::Deserialize;
 
@@ -118,38 +118,6 @@ pub fn camera(world: &World, options: &RenderOptions, aspect: f32) -> anyhow::Re
     let mut cam = Camera::look_at(eye, target, up, fov, aspect).map_err(|e| anyhow!("{e}"))?;
     cam.set_lens(lens.0, lens.1).map_err(|e| anyhow!("{e}"))?;
     Ok(cam)
-}
-
-/// A checked render: its settings and camera, and what the user should be told before it
-/// runs (a scene with no light).
-#[derive(Clone, Debug)]
-pub struct RenderPlan {
-    /// The settings, defaults filled and validated.
-    pub settings: RenderSettings,
-    /// The camera, the scene's or the automatic one, with the options applied.
-    pub camera: Camera,
-    /// Warnings, one line each, naming the scene.
-    pub warnings: Vec<String>,
-}
-
-/// The render's pre-flight: the settings and camera, and whether the image fits in memory.
-/// The error is one line naming the scene `scene_label`.
-pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow::Result<RenderPlan> {
-    let s = settings(world, options).with_context(|| scene_label.to_string())?;
-    let pixels = u64::from(s.width) * u64::from(s.height);
-    crate::io::memory::check_fits(
-        &format!("a {}x{} render", s.width, s.height),
-        pixels * BYTES_PER_PIXEL + world.accel.mesh.memory_bytes() as u64,
-    )?;
-    let camera =
-        camera(world, options, s.width as f32 / s.height as f32).with_context(|| scene_label.to_string())?;
-    let mut warnings = Vec::new();
-    if s.integrator != IntegratorKind::Raycast
-        && let Some(why) = super::unlit_reason(world)
-    {
-        warnings.push(format!("{scene_label}: {why}"));
-    }
-    Ok(RenderPlan { settings: s, camera, warnings })
 }
 
 #[cfg(test)]

@@ -19,6 +19,7 @@ pub mod config;
 pub mod coverage;
 pub mod diffraction;
 pub mod fresnel;
+pub mod job;
 pub mod options;
 pub mod output;
 pub mod plot;
