@@ -72,6 +72,7 @@ fn load_world(
 }
 
 pub mod acoustic;
+pub mod auralize;
 pub mod bench_acoustic;
 pub mod bench_render;
 pub mod bench_trace;
@@ -109,6 +110,9 @@ pub enum Command {
     /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
     /// for every source-receiver pair, plus Sabine and Eyring estimates.
     Acoustic(acoustic::AcousticArgs),
+    /// Convolve a dry signal with an impulse response (mono, binaural or Ambisonic), or
+    /// write a synthetic dry test signal with --make-dry.
+    Auralize(auralize::AuralizeArgs),
     /// Render an image (PNG or EXR) of a scene with a chosen integrator.
     Render(render::RenderArgs),
     /// Radio coverage map (coverage.csv, coverage.png, coverage.json) and coherent point
@@ -231,6 +235,7 @@ pub fn dispatch(command: Command, cluster: &Cluster) -> anyhow::Result<()> {
         // Reports and benchmarks are not split: rank 0 does them alone.
         _ if !cluster.is_root() => Ok(()),
         Command::Info(args) => info::run(&args),
+        Command::Auralize(args) => auralize::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
         Command::Bench(BenchCommand::Acoustic(args)) => bench_acoustic::run(&args),
         Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
