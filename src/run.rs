@@ -515,7 +515,7 @@ pub fn run(
         },
         "outputs": outputs,
     });
-    crate::io::atomic::write_bytes(&manifest_path, serde_json::to_string_pretty(&manifest)?.as_bytes())?;
+    crate::io::atomic::write_bytes(&manifest_path, crate::io::json::to_pretty(&manifest)?.as_bytes())?;
     let said: Vec<String> = Part::ALL
         .iter()
         .zip(&outcomes)

@@ -66,8 +66,9 @@ pub fn read_wav(path: &Path) -> Result<Signal, String> {
         }
         _ => {
             return Err(format!(
-                "{name}: {}-bit {:?} samples are not supported (integer up to 32 bits or 32-bit float)",
-                spec.bits_per_sample, spec.sample_format
+                "{name}: {}-bit {} samples are not supported (integer up to 32 bits or 32-bit float)",
+                spec.bits_per_sample,
+                if spec.sample_format == hound::SampleFormat::Float { "float" } else { "integer" }
             ));
         }
     };

@@ -396,7 +396,7 @@ pub fn write_all(
             "metrics": "ISO 3382-1 from the Schroeder curve, truncated at the noise floor with late-decay compensation (Lundeby et al. 1995) where the decay has one; C50, C80, D50 and Ts counted from the direct-sound arrival d/c, with the whole 1 ms bin holding the direct sound early; G re the same source at 10 m in a free field",
         },
     });
-    crate::io::atomic::write_bytes(&summary_path, serde_json::to_string_pretty(&json)?.as_bytes())?;
+    crate::io::atomic::write_bytes(&summary_path, crate::io::json::to_pretty(&json)?.as_bytes())?;
     written.push(summary_path);
     Ok(written)
 }

@@ -50,10 +50,15 @@ impl Listener {
     pub fn looking(front: [f32; 3], up: [f32; 3]) -> Result<Self, String> {
         let f = Vec3::from(front).as_dvec3();
         let u = Vec3::from(up).as_dvec3();
-        let front_n =
-            f.try_normalize().ok_or_else(|| format!("view direction {front:?}: must be non-zero"))?;
+        let front_n = f
+            .try_normalize()
+            .ok_or_else(|| format!("view direction {}: must be non-zero", crate::io::point(front)))?;
         let up_n = (u - front_n * u.dot(front_n)).try_normalize().ok_or_else(|| {
-            format!("up {up:?}: must be non-zero and not along the view direction {front:?}")
+            format!(
+                "up {}: must be non-zero and not along the view direction {}",
+                crate::io::point(up),
+                crate::io::point(front)
+            )
         })?;
         Ok(Self { front: front_n, left: up_n.cross(front_n), up: up_n })
     }

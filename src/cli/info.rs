@@ -41,7 +41,7 @@ pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
         );
     }
     if args.json {
-        say!("{}", serde_json::to_string_pretty(&r)?);
+        say!("{}", crate::io::json::to_pretty(&r)?);
     } else {
         crate::out!("{}", format_report(&r));
     }

@@ -148,10 +148,10 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         rayon::current_num_threads()
     );
     say!(
-        "wall time {:.3} s (median of {}; runs {:?}), {:.2} Mrays/s, {:.1} M ray segments/s ({} segments), {} cells reached",
+        "wall time {:.3} s (median of {}; runs {} s), {:.2} Mrays/s, {:.1} M ray segments/s ({} segments), {} cells reached",
         wall,
         args.repeat,
-        walls.iter().map(|w| (w * 1000.0).round() / 1000.0).collect::<Vec<_>>(),
+        walls.iter().map(|w| format!("{w:.3}")).collect::<Vec<_>>().join(", "),
         config.rays as f64 / wall / 1e6,
         segments as f64 / wall / 1e6,
         segments,

@@ -2,6 +2,7 @@
 //! physics here.
 
 pub mod atomic;
+pub mod json;
 pub mod memory;
 pub mod npy;
 pub mod plot;
@@ -14,6 +15,18 @@ pub fn file_stem(name: &str) -> String {
     let s: String =
         name.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' }).collect();
     if s.is_empty() { "_".into() } else { s }
+}
+
+/// A point or vector for people to read: `(1, -2.5, 0.3)`, each coordinate [`tidy`] to six
+/// significant digits (no `[1.0, -2.5, 0.30000001]` from `Debug`).
+pub fn point(p: [f32; 3]) -> String {
+    let [x, y, z] = p.map(|v| tidy(f64::from(v), 6));
+    format!("({x}, {y}, {z})")
+}
+
+/// A list of numbers for people to read: `63, 125, 250` (each [`tidy`] to six digits).
+pub fn number_list(values: &[f64]) -> String {
+    values.iter().map(|v| tidy(*v, 6)).collect::<Vec<_>>().join(", ")
 }
 
 /// A measured quantity for people to read: at most `digits` significant digits, trailing

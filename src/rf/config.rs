@@ -200,7 +200,7 @@ fn antenna_from(
                 Some(o) => {
                     let v = glam::Vec3::from(o).as_dvec3();
                     if !(v.is_finite() && v.length() > 1e-9) {
-                        return Err(format!("{who}: orientation {o:?} is not a direction"));
+                        return Err(format!("{who}: orientation {} is not a direction", crate::io::point(o)));
                     }
                     v.normalize()
                 }

@@ -298,7 +298,7 @@ pub fn summary<'a>(
 
 /// Writes the summary as pretty JSON.
 pub fn write_summary_json(path: &Path, summary: &Summary) -> anyhow::Result<()> {
-    let text = serde_json::to_string_pretty(summary)?;
+    let text = crate::io::json::to_pretty(summary)?;
     crate::io::atomic::write_bytes(path, (text + "\n").as_bytes())
 }
 

@@ -248,10 +248,10 @@ fn band_range(n: usize, bands_hz: Option<&[f32]>) -> Result<std::ops::Range<usiz
         let start = OCTAVE_BANDS_HZ
             .iter()
             .position(|&f| (f - first).abs() < 1.0)
-            .ok_or_else(|| format!("{first} Hz is not an octave centre of {OCTAVE_BANDS_HZ:?}"))?;
+            .ok_or_else(|| format!("{first} Hz is not an octave centre ({} Hz)", octave_list()))?;
         for (k, &f) in centres.iter().enumerate() {
             if OCTAVE_BANDS_HZ.get(start + k).is_none_or(|&c| (c - f).abs() >= 1.0) {
-                return Err(format!("bands_hz must be consecutive octave centres from {OCTAVE_BANDS_HZ:?}"));
+                return Err(format!("bands_hz must be consecutive octave centres from {} Hz", octave_list()));
             }
         }
         return Ok(start..start + n);
@@ -494,6 +494,11 @@ impl MaterialLibrary {
         scored.sort_by(|a, b| b.0.total_cmp(&a.0).then_with(|| a.1.cmp(b.1)));
         scored.into_iter().take(k).map(|(_, n)| n.clone()).collect()
     }
+}
+
+/// The octave centres for people to read: `63, 125, ..., 8000`.
+fn octave_list() -> String {
+    crate::io::number_list(&OCTAVE_BANDS_HZ.map(f64::from))
 }
 
 #[cfg(test)]

@@ -73,7 +73,7 @@ pub fn check_mtl(text: &str) -> Result<(), String> {
                     w.parse::<f32>()
                         .ok()
                         .filter(|v| v.is_finite())
-                        .ok_or_else(|| format!("line {}: {key} value {w:?} is not a finite number", i + 1))
+                        .ok_or_else(|| format!("line {}: {key} value \"{w}\" is not a finite number", i + 1))
                 })
                 .collect()
         };

@@ -18,6 +18,8 @@ pub struct InfoReport {
     pub bounds_min_m: [f32; 3],
     pub bounds_max_m: [f32; 3],
     pub total_area_m2: f64,
+    /// Surface area of the analytic spheres, m^2 (4 pi r^2 each), not in `total_area_m2`.
+    pub sphere_area_m2: f64,
     pub surfaces: Vec<SurfaceInfo>,
     pub closed: bool,
     pub open_edges: usize,
@@ -62,7 +64,12 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         .map(|(i, surf)| SurfaceInfo {
             name: surf.name.clone(),
             material: surf.material.as_ref().map(|m| m.name.clone()),
-            area_m2: r.area_by_surface_m2.get(i).copied().unwrap_or(0.0),
+            area_m2: r.area_by_surface_m2.get(i).copied().unwrap_or(0.0)
+                + s.spheres
+                    .iter()
+                    .filter(|sp| sp.surface as usize == i)
+                    .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
+                    .sum::<f64>(),
             acoustic: surf.material.as_ref().is_some_and(|m| m.acoustic.is_some()),
             radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| r.to_string()),
         })
@@ -95,6 +102,11 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         bounds_min_m: lo.to_array(),
         bounds_max_m: hi.to_array(),
         total_area_m2: r.total_area_m2,
+        sphere_area_m2: s
+            .spheres
+            .iter()
+            .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
+            .sum(),
         surfaces,
         closed: r.is_closed(),
         open_edges: r.open_edges,
@@ -133,7 +145,15 @@ pub fn format_report(r: &InfoReport) -> String {
         }
         let _ = writeln!(o, "  {:<28} {:<24} {:>10.3} m^2  {}", s.name, mat, s.area_m2, props.join(", "));
     }
-    let _ = writeln!(o, "area:       {:.3} m^2", r.total_area_m2);
+    if r.sphere_area_m2 > 0.0 {
+        let _ = writeln!(
+            o,
+            "area:       {:.3} m^2 of mesh, {:.3} m^2 of spheres",
+            r.total_area_m2, r.sphere_area_m2
+        );
+    } else {
+        let _ = writeln!(o, "area:       {:.3} m^2", r.total_area_m2);
+    }
     let _ = writeln!(
         o,
         "closed:     {} ({} open edges, {} over-shared edges)",
