@@ -42,6 +42,7 @@ pub struct LightSample {
     pub li: Vec3,
     /// Density per solid angle at the shading point (1 for a point light, a Dirac).
     pub pdf: f32,
+    /// Whether the light is a Dirac (a point light).
     pub delta: bool,
 }
 
@@ -175,6 +176,7 @@ impl Light {
 /// primitives back to their light.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
+    /// Every light.
     pub lights: Vec<Light>,
     /// Probability of choosing each light.
     pmf: Vec<f32>,
@@ -239,6 +241,7 @@ impl Lights {
         Self { lights, pmf, cdf, cdf_below, inv_pmf, triangle_light, sphere_light }
     }
 
+    /// Whether there is no light.
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }
