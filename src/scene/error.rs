@@ -14,6 +14,7 @@ pub enum SceneError {
 }
 
 impl SceneError {
+    /// An `Invalid` error about `path`.
     pub fn invalid(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         SceneError::Invalid { path: path.into(), message: message.into() }
     }
