@@ -90,6 +90,7 @@ pub(crate) fn safe_inverse(x: Vec3A) -> Vec3A {
 }
 
 impl FlatRay {
+    /// The constants of a ray from `origin` along `dir`.
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let s = RayShear::new(origin, dir);

@@ -34,10 +34,12 @@ pub const FLAT_TOLERANCE_RAD: f64 = 1.0e-3;
 pub struct Wedge {
     /// The edge runs from `start` to `end`.
     pub start: DVec3,
+    /// End of the edge.
     pub end: DVec3,
     /// Unit edge direction `(end - start) / length`: the azimuth about it from face 0
     /// increases into the exterior (right-handed).
     pub edge: DVec3,
+    /// Length of the edge, metres.
     pub length: f64,
     /// Unit vectors perpendicular to the edge pointing from the edge into face 0 and face n
     /// (the same vector twice for a rim).

@@ -126,7 +126,9 @@ fn a_of(beta: f64, n: f64, sign: f64) -> f64 {
 /// The reflection coefficients (TE, TM) that weigh the reflection terms of a wedge.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceReflection {
+    /// TE reflection coefficient.
     pub te: Complex,
+    /// TM reflection coefficient.
     pub tm: Complex,
 }
 

@@ -34,6 +34,7 @@ pub struct PathSum {
     pub path_orders: Vec<usize>,
     /// Length of each path, metres, in the same order.
     pub path_lengths_m: Vec<f64>,
+    /// Whether the direct path is unobstructed.
     pub line_of_sight: bool,
     /// `|sum h|^2`, linear.
     pub coherent_gain: f64,
