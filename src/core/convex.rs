@@ -20,7 +20,14 @@ pub const MAX_PLANES: usize = 4 * CHUNK;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Exit {
     /// The ray leaves through the triangle in flat slot `slot` at `t`, barycentrics `uv`.
-    Hit { slot: u32, t: f32, uv: Vec2 },
+    Hit {
+        /// Flat slot of the triangle.
+        slot: u32,
+        /// Ray parameter of the exit.
+        t: f32,
+        /// Barycentric coordinates of the exit point.
+        uv: Vec2,
+    },
     /// The ray stays inside up to `t_max`.
     Miss,
     /// The plane test does not apply to this ray: run the triangle test.

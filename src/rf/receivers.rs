@@ -48,10 +48,16 @@ pub struct PathSum {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Interaction {
     /// A specular reflection on this surface (`SurfaceId`).
-    Reflection { surface: u32 },
+    Reflection {
+        /// The surface (`SurfaceId`).
+        surface: u32,
+    },
     /// A first-order edge diffraction on the wedge between these surfaces (face 0, face n;
     /// the same twice on a rim), see [`crate::rf::diffraction`].
-    Diffraction { surfaces: [u32; 2] },
+    Diffraction {
+        /// The surfaces of face 0 and face n (`SurfaceId`).
+        surfaces: [u32; 2],
+    },
 }
 
 /// One path of a channel impulse response (docs/radio.md, sec. 3).

@@ -44,7 +44,10 @@ pub enum ScatteringPattern {
     #[default]
     Lambertian,
     /// `f_s ~ ((1 + cos psi_R) / 2)^alpha_r` around the specular direction, `alpha_r >= 1`.
-    Directive { alpha_r: u32 },
+    Directive {
+        /// Width parameter of the lobe, `>= 1`.
+        alpha_r: u32,
+    },
 }
 
 /// Radio diffuse reflection of a material (Sionna RT's `RadioMaterial` parameters): the
@@ -66,7 +69,13 @@ pub struct RadioScattering {
 pub enum RadioProps {
     /// An ITU-R P.2040-3 Table 3 material, by name.
     Itu(String),
-    Explicit { relative_permittivity: f64, conductivity_s_per_m: f64 },
+    /// Explicit constants.
+    Explicit {
+        /// Real relative permittivity.
+        relative_permittivity: f64,
+        /// Conductivity, S/m.
+        conductivity_s_per_m: f64,
+    },
 }
 
 impl std::fmt::Display for RadioProps {
