@@ -5,7 +5,7 @@
 //! The exit distance of a ray `o + t d` through the plane `n . x = c` (outward unit normal
 //! `n`) is `t = (c - n . o) / (n . d)` for the planes with `n . d > 0`; from inside every
 //! such `t` is non-negative and the smallest is where the ray leaves the polyhedron
-//! ([Haines1991] in docs/references.md; docs/performance.md).
+//! (\[Haines1991\] in docs/references.md; docs/performance.md).
 //! The query reports that it does not apply (the caller then runs the triangle test) when
 //! the origin is not inside every plane or the exit is at or before `t_min`.
 

@@ -4,7 +4,7 @@
 //!
 //! Vertices are merged by position (OBJ files often repeat a vertex once per face), so a box
 //! whose faces do not share vertex indices still has its twelve wedges. Each wedge is given
-//! in the frame of the uniform theory of diffraction ([Kouyoumjian1974] in
+//! in the frame of the uniform theory of diffraction (\[Kouyoumjian1974\] in
 //! docs/references.md): the edge from `start` to `end`, oriented so that the azimuth `phi`
 //! about it, measured from face 0, sweeps the exterior (the air) from 0 to `n pi`, where face
 //! n lies. The solid is taken to be the part of space inside the smaller dihedral angle
