@@ -185,7 +185,7 @@ pub struct SurfaceRadio {
     pub surface: String,
     /// Material name.
     pub material: Option<String>,
-    /// Real and imaginary parts of the complex relative permittivity at the carrier.
+    /// Real part of the complex relative permittivity at the carrier.
     pub eta_re: f64,
     /// Imaginary part of the complex relative permittivity at the carrier.
     pub eta_im: f64,
@@ -193,7 +193,7 @@ pub struct SurfaceRadio {
     pub normal_incidence_reflection: f64,
     /// Slab thickness, metres, when walls transmit (`null` when they are opaque).
     pub thickness_m: Option<f64>,
-    /// |R| and |T| of the slab at normal incidence, when walls transmit.
+    /// |R| of the slab at normal incidence, when walls transmit.
     pub normal_incidence_slab_reflection: Option<f64>,
     /// |T| of the slab at normal incidence, when walls transmit.
     pub normal_incidence_slab_transmission: Option<f64>,

@@ -166,8 +166,7 @@ pub struct TransmitterMap {
     /// Cells where this transmitter is the best server (several transmitters only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub best_server_cells: Option<usize>,
-    /// Cells reached by at least one diffracted path, and the wedges whose edge this
-    /// transmitter sees (diffraction on only).
+    /// Cells reached by at least one diffracted path (diffraction on only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub diffracted_cells: Option<usize>,
     /// Wedges whose edge this transmitter sees (diffraction on only).
