@@ -3,6 +3,7 @@
 // Unsafe code is denied everywhere but in the SIMD traversal (`core::traverse`), which allows
 // it for intrinsics and its uninitialised stack, each use with a `SAFETY:` note.
 #![deny(unsafe_code)]
+#![warn(missing_docs)]
 
 pub mod acoustic;
 mod cli;

@@ -18,8 +18,11 @@ pub fn exact_octave_midbands_hz() -> [f64; BAND_COUNT] {
 /// Atmospheric conditions.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct Air {
+    /// Temperature, degrees Celsius.
     pub temperature_c: f64,
+    /// Relative humidity, percent.
     pub relative_humidity_percent: f64,
+    /// Atmospheric pressure, kPa.
     pub pressure_kpa: f64,
 }
 

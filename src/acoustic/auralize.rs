@@ -19,7 +19,9 @@ pub const PEAK_DBFS: f64 = -1.0;
 /// A WAV file's content: the sample rate and each channel's samples in [-1, 1].
 #[derive(Clone, Debug, PartialEq)]
 pub struct Signal {
+    /// Sample rate, Hz.
     pub sample_rate_hz: u32,
+    /// Samples of each channel.
     pub channels: Vec<Vec<f32>>,
 }
 
@@ -84,6 +86,7 @@ pub fn read_wav(path: &Path) -> Result<Signal, String> {
 /// The result of [`auralize`]: the convolved channels and the gain applied to them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Auralized {
+    /// The convolved channels.
     pub signal: Signal,
     /// The one gain applied to every channel to put the peak at [`PEAK_DBFS`], dB.
     pub gain_db: f64,

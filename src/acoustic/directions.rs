@@ -23,8 +23,11 @@ pub const CELLS: usize = 6 * SPLIT * SPLIT;
 /// directional record small enough to stay in cache while rays deposit into it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DirectionBins {
+    /// Histogram bins per early direction bin.
     pub fine: usize,
+    /// Number of early direction bins.
     pub early: usize,
+    /// Histogram bins per late direction bin.
     pub coarse: usize,
 }
 

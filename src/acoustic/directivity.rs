@@ -34,14 +34,20 @@ pub const HYPERCARDIOID_A: f32 = 0.25;
 /// 1 omni, 1/2 cardioid, [`SUPERCARDIOID_A`], [`HYPERCARDIOID_A`], 0 figure-of-eight.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct FirstOrder {
+    /// Omni share, in [0, 1].
     pub a: f32,
 }
 
 impl FirstOrder {
+    /// Alike in every direction.
     pub const OMNI: Self = Self { a: 1.0 };
+    /// Cardioid.
     pub const CARDIOID: Self = Self { a: 0.5 };
+    /// Supercardioid.
     pub const SUPERCARDIOID: Self = Self { a: SUPERCARDIOID_A };
+    /// Hypercardioid.
     pub const HYPERCARDIOID: Self = Self { a: HYPERCARDIOID_A };
+    /// Figure of eight.
     pub const FIGURE_OF_EIGHT: Self = Self { a: 0.0 };
 
     /// The pressure gain at `cos_theta` from the axis, `a + (1 - a) cos theta` (negative in a
@@ -82,6 +88,7 @@ impl FirstOrder {
 /// direction it faces, its on-axis direction).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Directivity {
+    /// The pattern of each octave band.
     pub bands: [FirstOrder; BAND_COUNT],
     /// Unit vector, the pattern's axis (theta = 0).
     pub axis: [f32; 3],

@@ -170,8 +170,8 @@ fn dirac_sequence(samples: usize, volume_m3: f64, speed_m_s: f64, seed: u64) -> 
 /// Synthesises a pressure impulse response at [`SAMPLE_RATE_HZ`] from a histogram of band
 /// energies (`histogram[k][b]`, bins of `bin_s`), exactly as long as the histogram. For each
 /// band the Dirac sequence is weighted bin by bin and then band-filtered (zero outside the
-/// band, so bands do not overlap, see [`band_magnitude`], with minimum phase, see
-/// [`minimum_phase`]): a unit Dirac filtered to a band keeps the share
+/// band, so bands do not overlap, see `band_magnitude`, with minimum phase, see
+/// `minimum_phase`): a unit Dirac filtered to a band keeps the share
 /// `sum |H|^2 / N` of its energy (Parseval), so the weight sqrt(E / (sum d^2 x share)) gives
 /// each bin and band the histogram's energy while the filtering after weighting keeps each
 /// band's spectrum inside the band. The first non-empty bin (the direct sound) is one Dirac at

@@ -154,6 +154,7 @@ pub struct Lundeby {
     pub noise_start: usize,
     /// The late decay line: energy per bin in dB = `intercept_db + slope_db_per_s * t`.
     pub intercept_db: f64,
+    /// Slope of the late decay line, dB/s.
     pub slope_db_per_s: f64,
     /// Whether the noise segment is a floor: its mean is more than 3 dB above the decay line's
     /// continuation over the same bins. When it is not, the decay carries on to the end of

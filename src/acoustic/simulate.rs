@@ -42,8 +42,11 @@ pub type BandEnergies = [f64; BAND_COUNT];
 /// A point source. Its energy (power times 1 s) sets the scale of the histograms.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SourceSpec {
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position: [f32; 3],
+    /// Acoustic power, W.
     pub power_w: f64,
     /// How the source radiates ([`Directivity::OMNI`]: alike in every direction); its power
     /// stays `power_w` whatever the pattern (docs/acoustics.md, Directivity).
@@ -53,8 +56,11 @@ pub struct SourceSpec {
 /// A sphere receiver; `radius_m: None` takes the default rule of [`default_receiver_radius_m`].
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ReceiverSpec {
+    /// Name.
     pub name: String,
+    /// Centre, metres.
     pub position: [f32; 3],
+    /// Sphere radius, metres.
     pub radius_m: Option<f32>,
     /// The listener's head (where it looks, which way is up) for the Ambisonic and binaural
     /// responses; the default looks along +x with +z up.
@@ -67,6 +73,7 @@ pub struct ReceiverSpec {
 pub struct AcousticSettings {
     /// Rays per source.
     pub rays: u64,
+    /// Seed of the random number generator.
     pub seed: u64,
     /// Length of the histograms, s. `None` (the default): as long as the traced energy
     /// lasts, so every decay runs to its end (rays stop only by Russian roulette, see
@@ -74,6 +81,7 @@ pub struct AcousticSettings {
     pub max_time_s: Option<f64>,
     /// Histogram bin width, seconds (1 ms).
     pub bin_s: f64,
+    /// The air (temperature, humidity, pressure).
     pub air: Air,
     /// Whether air absorption (ISO 9613-1) is applied.
     pub air_absorption: bool,
@@ -156,8 +164,11 @@ impl Default for AcousticSettings {
 /// Results of one source-receiver pair.
 #[derive(Clone, Debug, Serialize)]
 pub struct PairResult {
+    /// Source name.
     pub source: String,
+    /// Receiver name.
     pub receiver: String,
+    /// Source-receiver distance, metres.
     pub distance_m: f64,
     /// Arrival time of the direct sound, s (straight-line distance / c).
     pub direct_s: f64,
@@ -165,6 +176,7 @@ pub struct PairResult {
     /// E / (4 pi d^2) for source energy E).
     #[serde(skip)]
     pub histogram: Vec<BandEnergies>,
+    /// Room-acoustic metrics per band.
     pub metrics: [BandMetrics; BAND_COUNT],
     /// Image-source paths found (including the direct sound).
     pub specular_paths: usize,
@@ -192,22 +204,33 @@ pub struct PairResult {
 /// Everything a simulation produces.
 #[derive(Clone, Debug, Serialize)]
 pub struct AcousticResult {
+    /// Octave band centres, Hz.
     pub bands_hz: [f32; BAND_COUNT],
+    /// Volume of air, m^3.
     pub volume_m3: f64,
+    /// Surface area, m^2.
     pub surface_m2: f64,
+    /// Speed of sound, m/s.
     pub speed_of_sound_m_s: f64,
+    /// Sabine reverberation time per band, seconds.
     pub sabine_s: [f64; BAND_COUNT],
+    /// Eyring reverberation time per band, seconds.
     pub eyring_s: [f64; BAND_COUNT],
     /// Length of the longest histogram, s.
     pub max_time_s: f64,
+    /// Histogram bin width, seconds.
     pub bin_s: f64,
+    /// Highest image-source order.
     pub ism_order: u32,
+    /// Radius of each receiver sphere, metres.
     pub receiver_radii_m: Vec<f32>,
+    /// Results of each source-receiver pair.
     pub pairs: Vec<PairResult>,
     /// Ray segments traced (launches and reflections), all sources together.
     pub segments: u64,
     /// Fraction of launched energy that escaped through holes in the mesh.
     pub escaped_energy_fraction: f64,
+    /// The settings used.
     pub settings: AcousticSettings,
 }
 

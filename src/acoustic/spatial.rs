@@ -32,8 +32,11 @@ use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
 /// ears are on its left-right axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Listener {
+    /// Unit vector the listener faces (x of the frame).
     pub front: DVec3,
+    /// Unit vector to the listener's left (y of the frame).
     pub left: DVec3,
+    /// Unit vector up (z of the frame).
     pub up: DVec3,
 }
 
@@ -74,6 +77,7 @@ impl Listener {
 pub struct PairDirections<'a> {
     /// Energy per bin and band, the image sources included.
     pub histogram: &'a [[f64; BAND_COUNT]],
+    /// Histogram bin width, seconds.
     pub bin_s: f64,
     /// The rays' energy per direction bin, cell and band (index `bin * CELLS + cell`).
     pub directions: &'a [[f64; BAND_COUNT]],
@@ -81,6 +85,7 @@ pub struct PairDirections<'a> {
     pub direction_bins: DirectionBins,
     /// The image-source arrivals with their exact directions.
     pub image_sources: &'a [Arrival],
+    /// Speed of sound, m/s.
     pub speed_m_s: f64,
 }
 

@@ -21,7 +21,9 @@ use crate::scene::materials::{BAND_COUNT, BandValues};
 /// Acoustic surface data per surface id.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceAcoustics {
+    /// Absorption coefficient per band.
     pub absorption: BandValues,
+    /// Scattering coefficient per band.
     pub scattering: BandValues,
 }
 
@@ -30,7 +32,9 @@ pub struct SurfaceAcoustics {
 /// order of its reflections while all of them were specular (`None` once it was scattered).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SoundRay {
+    /// Band energies after surface losses.
     pub energy: BandValues,
+    /// Order of its reflections while all were specular (`None` once scattered).
     pub specular_order: Option<u32>,
     /// The ray's last reflection was diffuse: with diffuse rain on, that part of the sound
     /// reached the receivers by the rain, so this segment's crossings are not counted again.
@@ -70,11 +74,15 @@ pub struct Splitting {
 /// processes gives the same histograms to the last bit (see [`crate::core::fixed`]).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct TraceRecord {
+    /// The current block's deposits in f64, per receiver, bin and band.
     pub block: Vec<Vec<[f64; BAND_COUNT]>>,
+    /// The merged deposits in fixed point, per receiver, bin and band.
     pub fixed: Vec<Vec<[u128; BAND_COUNT]>>,
+    /// Detections per receiver.
     pub detections: Vec<u64>,
     /// Escaped energy per band, air losses included, in fixed point of the launch energy.
     pub escaped: [u128; BAND_COUNT],
+    /// Rays that escaped the scene.
     pub rays_escaped: u64,
     /// Straight flights traced (a ray's launch and every reflection start one).
     pub segments: u64,
@@ -85,6 +93,7 @@ pub struct TraceRecord {
     /// (The block's sums are f32: half the memory, so the record stays in cache; directions
     /// are used as shares of a bin's energy, which f32 sums of a block keep to 1e-6.)
     pub dir_block: Vec<Vec<[f32; BAND_COUNT]>>,
+    /// Directions of arrival in fixed point (see `dir_block`).
     pub dir_fixed: Vec<Vec<[u128; BAND_COUNT]>>,
 }
 
@@ -121,7 +130,9 @@ impl TraceRecord {
 /// The acoustic [`Propagation`]: surface absorption and scattering, sphere receivers with
 /// the chord-length estimator, and Russian roulette once a ray is weak.
 pub struct SoundPropagation<'a> {
+    /// Acoustic data per surface id.
     pub surfaces: &'a [SurfaceAcoustics],
+    /// Receiver spheres.
     pub receivers: &'a [Sphere],
     /// Energy per ray at launch, J (source energy / ray count).
     pub ray_energy_j: f32,

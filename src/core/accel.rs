@@ -34,14 +34,17 @@ use super::triangle::RayShear;
 /// BVH build quality presets, from obvhs.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum BuildQuality {
+    /// obvhs' fast preset.
     Fast,
     /// obvhs' medium preset: about Embree's build time with faster traversal.
     #[default]
     Medium,
+    /// obvhs' high preset.
     High,
 }
 
 impl BuildQuality {
+    /// Every preset.
     pub const ALL: [BuildQuality; 3] = [BuildQuality::Fast, BuildQuality::Medium, BuildQuality::High];
 
     fn params(self) -> BvhBuildParams {
@@ -125,6 +128,7 @@ pub struct MeshBvh {
 const BUILD_TIMES_VARIABLE: &str = "PROPSIM_BUILD_TIMES";
 
 impl MeshBvh {
+    /// Builds the BVH of `mesh` at `quality`.
     pub fn build(mesh: &TriangleMesh, quality: BuildQuality) -> Self {
         if mesh.triangle_count() <= FLAT_LIMIT {
             return Self::build_flat(mesh);
@@ -274,6 +278,7 @@ impl MeshBvh {
         }
     }
 
+    /// The closest triangle hit along `ray`, if any.
     #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         self.closest_lane(ray).map(|c| self.make_hit((c.first, c.count, c.lane), c.t, c.uv, ray))
@@ -499,11 +504,13 @@ const SPHERE_LINEAR_LIMIT: usize = 16;
 /// Analytic spheres, with a CWBVH when there are many.
 #[derive(Default)]
 pub struct SphereSet {
+    /// The spheres.
     pub spheres: Vec<Sphere>,
     bvh: Option<(CwBvh, Traverser)>,
 }
 
 impl SphereSet {
+    /// A set of `spheres`, with a BVH when there are many.
     pub fn new(spheres: Vec<Sphere>) -> Self {
         let bvh = (spheres.len() > SPHERE_LINEAR_LIMIT).then(|| {
             let bounds: Vec<Bounds> =
@@ -515,6 +522,7 @@ impl SphereSet {
         Self { spheres, bvh }
     }
 
+    /// Whether there is no sphere.
     pub fn is_empty(&self) -> bool {
         self.spheres.is_empty()
     }
@@ -530,6 +538,7 @@ impl SphereSet {
         }
     }
 
+    /// The closest sphere hit along `ray`, if any.
     #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let mut best: Option<Hit> = None;
@@ -553,6 +562,7 @@ impl SphereSet {
         best
     }
 
+    /// Whether any sphere blocks `ray`.
     pub fn occluded(&self, ray: &Ray) -> bool {
         let mut any = false;
         self.candidates(ray, |i| any |= self.spheres[i].intersect(ray).is_some());
@@ -572,13 +582,16 @@ impl SphereSet {
 
 /// Everything a simulator traces against: one triangle mesh and a set of opaque spheres.
 pub struct Accel {
+    /// The triangle mesh's BVH.
     pub mesh: MeshBvh,
+    /// The spheres.
     pub spheres: SphereSet,
     /// Corners of a box holding every triangle and sphere (empty: lower above upper).
     bounds: (Vec3, Vec3),
 }
 
 impl Accel {
+    /// Builds the structure over `mesh` and `spheres` at `quality`.
     pub fn build(mesh: &TriangleMesh, spheres: Vec<Sphere>, quality: BuildQuality) -> Self {
         let empty = (Vec3::INFINITY, Vec3::NEG_INFINITY);
         let bounds = spheres

@@ -171,7 +171,9 @@ pub struct TraceFigures {
     /// Shadow rays of `propsim render` and the acoustic diffuse rain: one
     /// [`Accel::occluded`] query a ray.
     pub occlusion_mrays_s: f64,
+    /// Rays that hit a triangle.
     pub hits: usize,
+    /// Rays found occluded.
     pub occluded: usize,
     /// Sum over rays of (hit triangle index + 1), 0 for a miss, wrapping at 2^64.
     pub checksum: u64,

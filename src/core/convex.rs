@@ -5,7 +5,7 @@
 //! The exit distance of a ray `o + t d` through the plane `n . x = c` (outward unit normal
 //! `n`) is `t = (c - n . o) / (n . d)` for the planes with `n . d > 0`; from inside every
 //! such `t` is non-negative and the smallest is where the ray leaves the polyhedron
-//! ([Haines1991] in docs/references.md; docs/performance.md).
+//! (\[Haines1991\] in docs/references.md; docs/performance.md).
 //! The query reports that it does not apply (the caller then runs the triangle test) when
 //! the origin is not inside every plane or the exit is at or before `t_min`.
 
@@ -20,7 +20,14 @@ pub const MAX_PLANES: usize = 4 * CHUNK;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Exit {
     /// The ray leaves through the triangle in flat slot `slot` at `t`, barycentrics `uv`.
-    Hit { slot: u32, t: f32, uv: Vec2 },
+    Hit {
+        /// Flat slot of the triangle.
+        slot: u32,
+        /// Ray parameter of the exit.
+        t: f32,
+        /// Barycentric coordinates of the exit point.
+        uv: Vec2,
+    },
     /// The ray stays inside up to `t_max`.
     Miss,
     /// The plane test does not apply to this ray: run the triangle test.

@@ -7,7 +7,7 @@
 //! very same operations in the same order (no fused multiply-add), so it finds the hits a
 //! tree would, bit for bit. In effect a one-node wide BVH with 8-triangle leaves.
 //!
-//! The lane loops here are the portable reference; [`avx`] does each step in one 8-wide
+//! The lane loops here are the portable reference; `avx` does each step in one 8-wide
 //! instruction. On the 36-triangle Cornell box (callgrind, `propsim render`) a closest hit
 //! takes 349 instructions against 590 for the CWBVH, which visits 1.6 nodes and 2 leaves of
 //! at most 3 triangles, sorting and pushing on the way, and a shadow ray 214 against 737.
@@ -90,6 +90,7 @@ pub(crate) fn safe_inverse(x: Vec3A) -> Vec3A {
 }
 
 impl FlatRay {
+    /// The constants of a ray from `origin` along `dir`.
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let s = RayShear::new(origin, dir);

@@ -8,7 +8,9 @@ pub type SurfaceId = u32;
 /// What kind of primitive a [`Hit`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum PrimitiveKind {
+    /// A mesh triangle.
     Triangle,
+    /// An analytic sphere.
     Sphere,
 }
 
@@ -26,6 +28,7 @@ pub struct Hit {
     pub barycentric: Vec2,
     /// Index of the primitive in its list (the mesh's triangles, or the spheres).
     pub primitive: u32,
+    /// Triangle or sphere.
     pub kind: PrimitiveKind,
     /// The surface (material slot) hit.
     pub surface: SurfaceId,

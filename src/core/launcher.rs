@@ -55,6 +55,7 @@ pub trait Propagation: Sync {
     /// What a block of rays deposits (histograms, coverage cells).
     type Accum: Send;
 
+    /// An empty accumulator for a block of rays.
     fn new_accum(&self) -> Self::Accum;
     /// Adds `other` (a later block) into `into`.
     fn merge(&self, into: &mut Self::Accum, other: Self::Accum);
@@ -106,12 +107,16 @@ pub trait Propagation: Sync {
 /// Launch settings.
 #[derive(Clone, Copy, Debug)]
 pub struct Launch {
+    /// Where the rays start.
     pub origin: Vec3,
+    /// Number of rays.
     pub rays: u64,
+    /// Seed of the random number generator.
     pub seed: u64,
     /// Separates this launch's random streams from other launches with the same seed (e.g.
     /// one per source).
     pub domain: u64,
+    /// How launch directions are chosen.
     pub pattern: LaunchPattern,
     /// Surface interactions after which a ray stops.
     pub max_reflections: u32,

@@ -41,6 +41,7 @@ pub struct LeafRay {
 }
 
 impl LeafRay {
+    /// The leaf-test constants of the sheared ray `s`.
     #[inline(always)]
     pub fn new(s: &RayShear) -> Self {
         Self {

@@ -9,14 +9,18 @@ use super::triangle::TriangleRt;
 /// `surface_names[id]` is that name.
 #[derive(Clone, Debug, Default)]
 pub struct TriangleMesh {
+    /// Vertex positions, metres.
     pub positions: Vec<Vec3>,
+    /// Vertex indices of each triangle.
     pub triangles: Vec<[u32; 3]>,
     /// One entry per triangle.
     pub surface_of_triangle: Vec<SurfaceId>,
+    /// Name of each surface, by `SurfaceId`.
     pub surface_names: Vec<String>,
 }
 
 impl TriangleMesh {
+    /// Number of triangles.
     pub fn triangle_count(&self) -> usize {
         self.triangles.len()
     }

@@ -6,9 +6,13 @@ use glam::Vec3;
 /// but every simulator in propsim uses unit directions so that `t` is a distance in metres.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Origin.
     pub origin: Vec3,
+    /// Direction.
     pub dir: Vec3,
+    /// Start of the valid interval of `t`.
     pub t_min: f32,
+    /// End of the valid interval of `t`.
     pub t_max: f32,
 }
 

@@ -7,25 +7,32 @@ use std::ops::{Add, AddAssign, Index, IndexMut, Mul, MulAssign};
 pub struct Spectrum<const N: usize>(pub [f32; N]);
 
 impl<const N: usize> Spectrum<N> {
+    /// Every value 0.
     pub const ZERO: Self = Self([0.0; N]);
+    /// Every value 1.
     pub const ONE: Self = Self([1.0; N]);
 
+    /// Every value `v`.
     pub fn splat(v: f32) -> Self {
         Self([v; N])
     }
 
+    /// `f` applied to every value.
     pub fn map(self, f: impl Fn(f32) -> f32) -> Self {
         Self(self.0.map(f))
     }
 
+    /// The largest value.
     pub fn max_value(&self) -> f32 {
         self.0.iter().copied().fold(f32::NEG_INFINITY, f32::max)
     }
 
+    /// The sum of the values.
     pub fn sum(&self) -> f32 {
         self.0.iter().sum()
     }
 
+    /// Whether every value is finite.
     pub fn is_finite(&self) -> bool {
         self.0.iter().all(|v| v.is_finite())
     }

@@ -65,7 +65,9 @@ const MAX_SKIPS: usize = 8;
 /// A plane `normal . x = offset` with a unit normal.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plane {
+    /// Unit normal.
     pub normal: DVec3,
+    /// Offset along the normal, metres.
     pub offset: f64,
 }
 
@@ -264,10 +266,12 @@ impl Planes {
         Self { planes, plane_of_triangle }
     }
 
+    /// Number of planes.
     pub fn len(&self) -> usize {
         self.planes.len()
     }
 
+    /// Whether there is no plane.
     pub fn is_empty(&self) -> bool {
         self.planes.is_empty()
     }
@@ -308,6 +312,7 @@ pub struct Reflection {
     pub plane: u32,
     /// The mesh triangle the path meets there, and its surface.
     pub triangle: u32,
+    /// The triangle's surface.
     pub surface: SurfaceId,
     /// The exact reflection point, on the plane.
     pub point: DVec3,
@@ -320,7 +325,9 @@ pub struct Reflection {
 /// A valid specular path from a source to a receiver.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpecularPath {
+    /// Source position, metres.
     pub source: DVec3,
+    /// Receiver position, metres.
     pub receiver: DVec3,
     /// The reflections, first (nearest the source) first; empty for the direct path.
     pub reflections: Vec<Reflection>,

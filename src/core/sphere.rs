@@ -8,12 +8,16 @@ use super::ray::Ray;
 /// A sphere with a surface (material slot).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sphere {
+    /// Centre, metres.
     pub center: Vec3,
+    /// Radius, metres.
     pub radius_m: f32,
+    /// Its surface (material slot).
     pub surface: SurfaceId,
 }
 
 impl Sphere {
+    /// A sphere of `center`, `radius_m` and `surface`.
     pub fn new(center: Vec3, radius_m: f32, surface: SurfaceId) -> Self {
         Self { center, radius_m, surface }
     }
@@ -68,14 +72,17 @@ impl Sphere {
         }
     }
 
+    /// Whether `p` lies inside or on the sphere.
     pub fn contains(&self, p: Vec3) -> bool {
         (p - self.center).length_squared() <= self.radius_m * self.radius_m
     }
 
+    /// Lower corner of its bounding box.
     pub fn aabb_min(&self) -> Vec3 {
         self.center - Vec3::splat(self.radius_m)
     }
 
+    /// Upper corner of its bounding box.
     pub fn aabb_max(&self) -> Vec3 {
         self.center + Vec3::splat(self.radius_m)
     }

@@ -4,7 +4,7 @@
 //! A single ray prefetches the children and leaves a node test hits before it tests the
 //! leaves, so their cache misses overlap the triangle tests (incoherent rays are bound by
 //! those misses); a stream prefetches the item each of its rays visits next. Coherent rays
-//! can instead walk the tree in groups that share each node ([`group`]).
+//! can instead walk the tree in groups that share each node (`group`).
 //! The loops are generic over [`WideBvhNode`], so another 8-wide node format can plug in.
 //!
 //! The eight child boxes of a node are tested at once: with AVX and FMA (and AVX2's one-step
@@ -562,7 +562,7 @@ impl Traverser {
         f(&mut stacks)
     }
 
-    /// Closest-hit traversal of rays `0..count` as a stream ([`closest_stream_loop`]):
+    /// Closest-hit traversal of rays `0..count` as a stream (`closest_stream_loop`):
     /// `start(i)` gives ray `i`'s node constants, distance limit and leaf test, and
     /// `finish(i, leaves)` receives the leaf test back when ray `i` is done.
     pub fn closest_stream<N: WideBvhNode, V: ClosestLeaves>(
@@ -599,7 +599,7 @@ impl Traverser {
 
 impl Traverser {
     /// Closest-hit traversal of rays `0..count` in groups of [`GROUP_WIDTH`] consecutive
-    /// rays ([`group`]): `start(i)` gives ray `i`'s node constants, distance limit and leaf
+    /// rays (`group`): `start(i)` gives ray `i`'s node constants, distance limit and leaf
     /// test, and `finish(i, leaves)` receives the leaf test back.
     pub fn closest_groups<V: ClosestLeaves>(
         &self,

@@ -10,6 +10,7 @@ use super::ray::Ray;
 /// Per-ray constants of the watertight test: the dominant axis and the shear.
 #[derive(Clone, Copy, Debug)]
 pub struct RayShear {
+    /// Ray origin.
     pub origin: Vec3A,
     pub(crate) kx: usize,
     pub(crate) ky: usize,
@@ -20,6 +21,7 @@ pub struct RayShear {
 }
 
 impl RayShear {
+    /// The constants of a ray from `origin` along `dir`.
     #[inline(always)]
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
@@ -42,16 +44,21 @@ impl RayShear {
 /// A triangle stored for intersection: its three corners.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TriangleRt {
+    /// First corner.
     pub v0: Vec3A,
+    /// Second corner.
     pub v1: Vec3A,
+    /// Third corner.
     pub v2: Vec3A,
 }
 
 impl TriangleRt {
+    /// A triangle of corners `v0`, `v1`, `v2`.
     pub fn new(v0: Vec3, v1: Vec3, v2: Vec3) -> Self {
         Self { v0: v0.into(), v1: v1.into(), v2: v2.into() }
     }
 
+    /// The three corners.
     pub fn vertices(&self) -> [Vec3; 3] {
         [self.v0.into(), self.v1.into(), self.v2.into()]
     }
@@ -80,6 +87,7 @@ impl TriangleRt {
         self.intersect_sheared(shear, t_min, t_max).map_or(f32::INFINITY, |(t, _)| t)
     }
 
+    /// Ray parameter `t` and barycentric `(u, v)` of the hit with `t` in `[t_min, t_max]`, if any.
     #[inline(always)]
     pub fn intersect_sheared(&self, s: &RayShear, t_min: f32, t_max: f32) -> Option<(f32, Vec2)> {
         let a = self.v0 - s.origin;

@@ -2,7 +2,7 @@
 //! by the part and the point (a tetrahedron), so every segment from the part to the point is
 //! clear and a simulator can skip its shadow ray. Each triangle is cut into
 //! [`SUBDIVISIONS`]^2 parts on a grid of its barycentric coordinates. The test is the
-//! separating-axis theorem for two convex polyhedra ([Gottschalk1996] and [Ericson2005] in
+//! separating-axis theorem for two convex polyhedra (\[Gottschalk1996\] and \[Ericson2005\] in
 //! docs/references.md; docs/performance.md): face normals of both and cross products of their
 //! edges. Touching (a neighbour sharing an edge) is not meeting.
 

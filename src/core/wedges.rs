@@ -4,7 +4,7 @@
 //!
 //! Vertices are merged by position (OBJ files often repeat a vertex once per face), so a box
 //! whose faces do not share vertex indices still has its twelve wedges. Each wedge is given
-//! in the frame of the uniform theory of diffraction ([Kouyoumjian1974] in
+//! in the frame of the uniform theory of diffraction (\[Kouyoumjian1974\] in
 //! docs/references.md): the edge from `start` to `end`, oriented so that the azimuth `phi`
 //! about it, measured from face 0, sweeps the exterior (the air) from 0 to `n pi`, where face
 //! n lies. The solid is taken to be the part of space inside the smaller dihedral angle
@@ -34,10 +34,12 @@ pub const FLAT_TOLERANCE_RAD: f64 = 1.0e-3;
 pub struct Wedge {
     /// The edge runs from `start` to `end`.
     pub start: DVec3,
+    /// End of the edge.
     pub end: DVec3,
     /// Unit edge direction `(end - start) / length`: the azimuth about it from face 0
     /// increases into the exterior (right-handed).
     pub edge: DVec3,
+    /// Length of the edge, metres.
     pub length: f64,
     /// Unit vectors perpendicular to the edge pointing from the edge into face 0 and face n
     /// (the same vector twice for a rim).

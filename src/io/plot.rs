@@ -36,7 +36,9 @@ pub fn write_rgb_png(path: &Path, width: u32, height: u32, rgb: &[u8]) -> anyhow
 /// One line of a chart.
 #[derive(Clone, Debug, Default)]
 pub struct Series {
+    /// Legend text.
     pub label: String,
+    /// Points `(x, y)`.
     pub points: Vec<(f64, f64)>,
     /// Drawn dashed (e.g. data extrapolated rather than given).
     pub dashed: bool,
@@ -54,10 +56,15 @@ impl Series {
 /// Titles and axis ranges of a line chart.
 #[derive(Clone, Copy, Debug)]
 pub struct Chart<'a> {
+    /// Chart title.
     pub title: &'a str,
+    /// Label of the x axis.
     pub x_label: &'a str,
+    /// Label of the y axis.
     pub y_label: &'a str,
+    /// Range of the x axis.
     pub x_range: (f64, f64),
+    /// Range of the y axis.
     pub y_range: (f64, f64),
     /// Legend text for the circle markers, shown when a series has markers.
     pub marker_label: Option<&'a str>,

@@ -1,5 +1,5 @@
 //! Checked standard output. `println!` panics when standard output cannot be written (a full
-//! disk behind `> file`); [`print`] records the first failure instead, stops writing, and
+//! disk behind `> file`); [`print()`] records the first failure instead, stops writing, and
 //! [`finish`] reports it once the command is done, so that the command ends with one error
 //! line and a non-zero exit.
 

@@ -21,18 +21,31 @@ const SMOOTH_ALPHA: f32 = 1.0e-3;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Bsdf {
     /// Ideal diffuse reflection with albedo `albedo` (pbrt-v4 sec. 9.2): `f = albedo / pi`.
-    Lambert { albedo: Vec3 },
+    Lambert {
+        /// Albedo (linear RGB).
+        albedo: Vec3,
+    },
     /// Conductor with the GGX (Trowbridge-Reitz) microfacet distribution of roughness `alpha`
     /// (Walter, Marschner, Li, Torrance 2007, "Microfacet models for refraction through rough
     /// surfaces"), Smith height-correlated masking-shadowing (Heitz 2014) and Schlick's Fresnel
     /// from the normal-incidence reflectance `f0`; `alpha < 1e-3` is a perfect mirror.
     /// Sampled by visible normals (Heitz 2018, "Sampling the GGX distribution of visible normals").
-    Metal { f0: Vec3, alpha: f32 },
+    Metal {
+        /// Reflectance at normal incidence (linear RGB).
+        f0: Vec3,
+        /// GGX roughness.
+        alpha: f32,
+    },
     /// Smooth dielectric interface of relative index `eta` (inside / outside, inside being the
     /// side the normal points away from): reflection and refraction weighted by the exact
     /// unpolarised Fresnel equations, total internal reflection included (pbrt-v4 sec. 9.3, 9.5).
     /// `tint` scales transmitted light (coloured glass).
-    Dielectric { eta: f32, tint: Vec3 },
+    Dielectric {
+        /// Relative index of refraction (inside / outside).
+        eta: f32,
+        /// Scale of transmitted light (linear RGB).
+        tint: Vec3,
+    },
 }
 
 /// A direction drawn from a BSDF.

@@ -11,6 +11,7 @@ use crate::scene::desc::CameraDesc;
 /// image to (1,1) at the bottom-right.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Camera position.
     pub eye: Vec3,
     /// Unit viewing direction.
     pub forward: Vec3,

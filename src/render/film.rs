@@ -14,8 +14,11 @@ use glam::Vec3;
 /// A `width` x `height` image of linear RGB values, row-major from the top-left pixel.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Width, pixels.
     pub width: u32,
+    /// Height, pixels.
     pub height: u32,
+    /// Pixel values, row-major from the top left.
     pub pixels: Vec<Vec3>,
 }
 
@@ -73,6 +76,7 @@ pub enum ToneMap {
 }
 
 impl ToneMap {
+    /// The tone map's name.
     pub fn name(self) -> &'static str {
         match self {
             ToneMap::None => "none",
@@ -117,6 +121,7 @@ pub const MAX_EXPOSURE_EV: f32 = 30.0;
 pub struct Display {
     /// Exposure, stops: radiance is multiplied by 2^`exposure_ev` before the tone map.
     pub exposure_ev: f32,
+    /// Tone map.
     pub tone_map: ToneMap,
 }
 
@@ -151,10 +156,12 @@ impl Display {
 }
 
 impl Film {
+    /// A black image of `width` x `height` pixels.
     pub fn new(width: u32, height: u32) -> Self {
         Self { width, height, pixels: vec![Vec3::ZERO; width as usize * height as usize] }
     }
 
+    /// The pixel at column `x`, row `y`.
     #[inline]
     pub fn get(&self, x: u32, y: u32) -> Vec3 {
         self.pixels[(y * self.width + x) as usize]

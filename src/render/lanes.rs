@@ -223,7 +223,7 @@ fn shade(v: &Vertices) -> Shaded {
     Shaded { direct, shadow, shadow_origin, shadow_dir: wi, shadow_t_max, origin, dir, pdf, beta, alive }
 }
 
-/// The pixels `x0..x1` x `y0..y1` in row order, as [`super::render_pixel`] gives them, bit for
+/// The pixels `x0..x1` x `y0..y1` in row order, as `super::render_pixel` gives them, bit for
 /// bit. Counts traced rays into `rays`.
 pub fn render_tile(
     scene: &RenderScene,

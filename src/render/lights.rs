@@ -22,11 +22,36 @@ const ONE_MINUS_EPSILON: f32 = 1.0 - f32::EPSILON / 2.0;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Light {
     /// Isotropic point light of radiant intensity `intensity` (W/sr per channel).
-    Point { position: Vec3, intensity: Vec3 },
+    Point {
+        /// Position, metres.
+        position: Vec3,
+        /// Radiant intensity, W/sr per channel.
+        intensity: Vec3,
+    },
     /// Emissive triangle `p0, p0 + e1, p0 + e2` with unit normal `normal` and radiance `le`.
-    Triangle { p0: Vec3, e1: Vec3, e2: Vec3, normal: Vec3, area: f32, le: Vec3 },
+    Triangle {
+        /// First corner.
+        p0: Vec3,
+        /// Edge from `p0` to the second corner.
+        e1: Vec3,
+        /// Edge from `p0` to the third corner.
+        e2: Vec3,
+        /// Unit normal.
+        normal: Vec3,
+        /// Area, m^2.
+        area: f32,
+        /// Emitted radiance.
+        le: Vec3,
+    },
     /// Emissive sphere (emitting outwards) of radiance `le`.
-    Sphere { center: Vec3, radius: f32, le: Vec3 },
+    Sphere {
+        /// Centre, metres.
+        center: Vec3,
+        /// Radius, metres.
+        radius: f32,
+        /// Emitted radiance.
+        le: Vec3,
+    },
 }
 
 /// A point sampled on a light as seen from a shading point.
@@ -42,6 +67,7 @@ pub struct LightSample {
     pub li: Vec3,
     /// Density per solid angle at the shading point (1 for a point light, a Dirac).
     pub pdf: f32,
+    /// Whether the light is a Dirac (a point light).
     pub delta: bool,
 }
 
@@ -175,6 +201,7 @@ impl Light {
 /// primitives back to their light.
 #[derive(Clone, Debug, Default)]
 pub struct Lights {
+    /// Every light.
     pub lights: Vec<Light>,
     /// Probability of choosing each light.
     pmf: Vec<f32>,
@@ -239,6 +266,7 @@ impl Lights {
         Self { lights, pmf, cdf, cdf_below, inv_pmf, triangle_light, sphere_light }
     }
 
+    /// Whether there is no light.
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }

@@ -80,8 +80,10 @@ pub enum IntegratorKind {
 }
 
 impl IntegratorKind {
+    /// Names of the integrators, in declaration order.
     pub const NAMES: [&'static str; 4] = ["raycast", "whitted", "distributed", "path"];
 
+    /// The integrator's name.
     pub fn name(self) -> &'static str {
         Self::NAMES[self as usize]
     }
@@ -108,13 +110,17 @@ impl FromStr for IntegratorKind {
 /// What to render and how.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
+    /// Image width, pixels.
     pub width: u32,
+    /// Image height, pixels.
     pub height: u32,
     /// Samples per pixel.
     pub spp: u32,
     /// Maximum number of bounces (1 = direct lighting only; pbrt-v4's `maxdepth`).
     pub max_depth: u32,
+    /// The integrator.
     pub integrator: IntegratorKind,
+    /// Seed of the random number generator.
     pub seed: u64,
     /// Radiance of rays that leave the scene; `None` keeps the scene's (default black).
     pub background: Option<Vec3>,
@@ -174,12 +180,14 @@ impl RenderSettings {
 /// How a surface looks: its BSDF and emitted radiance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceOptics {
+    /// The BSDF.
     pub bsdf: Bsdf,
     /// Radiance emitted from the front face (the side the winding's normal points to).
     pub emission: Vec3,
 }
 
 impl SurfaceOptics {
+    /// A Lambertian surface of albedo `albedo` that emits nothing.
     pub fn diffuse(albedo: Vec3) -> Self {
         Self { bsdf: Bsdf::Lambert { albedo }, emission: Vec3::ZERO }
     }
@@ -228,10 +236,13 @@ impl SurfaceOptics {
 /// The renderer's view of a world: the acceleration structure, each surface's optics, the
 /// lights and the background radiance.
 pub struct RenderScene<'a> {
+    /// The acceleration structure.
     pub accel: &'a Accel,
     /// Indexed by surface id.
     pub surfaces: Vec<SurfaceOptics>,
+    /// The lights.
     pub lights: Lights,
+    /// Radiance of rays that leave the scene.
     pub background: Vec3,
     /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
     /// a hit needs only these, so the renderer skips the core's barycentric recomputation.
@@ -358,23 +369,29 @@ impl<'a> RenderScene<'a> {
 /// A local shading frame whose z axis is a surface normal.
 #[derive(Clone, Copy, Debug)]
 pub struct Frame {
+    /// Tangent.
     pub t: Vec3,
+    /// Bitangent.
     pub b: Vec3,
+    /// Normal.
     pub n: Vec3,
 }
 
 impl Frame {
+    /// A frame around the unit normal `n`.
     #[inline]
     pub fn new(n: Vec3) -> Self {
         let (t, b) = orthonormal_basis(n);
         Self { t, b, n }
     }
 
+    /// `v` in the frame's coordinates.
     #[inline]
     pub fn to_local(&self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.t), v.dot(self.b), v.dot(self.n))
     }
 
+    /// `v` in world coordinates.
     #[inline]
     pub fn to_world(&self, v: Vec3) -> Vec3 {
         self.t * v.x + self.b * v.y + self.n * v.z
@@ -400,11 +417,13 @@ pub fn power_heuristic(f: f32, g: f32) -> f32 {
 /// A finished image and what it cost.
 #[derive(Clone, Debug)]
 pub struct RenderOutput {
+    /// The image.
     pub film: Film,
     /// Camera samples taken (pixels x spp).
     pub samples: u64,
     /// Rays traced: closest-hit and shadow queries.
     pub rays: u64,
+    /// Wall time, seconds.
     pub seconds: f64,
 }
 
@@ -604,8 +623,11 @@ pub const AUTO_CORNER_INSET: f32 = 0.12;
 /// Where the automatic camera stands and looks.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AutoView {
+    /// Camera position.
     pub eye: Vec3,
+    /// Point looked at.
     pub target: Vec3,
+    /// Vertical field of view, degrees.
     pub fov_deg: f32,
     /// Whether the camera stands inside a closed room.
     pub inside: bool,

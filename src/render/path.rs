@@ -27,9 +27,13 @@ pub enum PathMode {
 
 /// A surface point being shaded: the hit, its frame, the outgoing direction (local) and BSDF.
 pub struct Vertex<'h> {
+    /// The hit.
     pub hit: &'h Hit,
+    /// Shading frame.
     pub frame: Frame,
+    /// Outgoing direction, in the frame.
     pub wo: Vec3,
+    /// The BSDF.
     pub bsdf: Bsdf,
 }
 

@@ -32,12 +32,18 @@ pub const HALF_WAVE_DIPOLE_DIRECTIVITY: f64 = 1.640_922_376_984_585;
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum Antenna {
     /// Gain 1 in every direction, with the given polarisation.
-    Isotropic { polarization: Polarization },
+    Isotropic {
+        /// The polarisation.
+        polarization: Polarization,
+    },
     /// A lossless half-wave dipole along `axis` (unit vector): gain
     /// `G(psi) = 1.6409 [cos(pi/2 cos psi) / sin psi]^2`, psi the angle from the axis
     /// (Balanis eq. 4-84, normalised to the directivity of eq. 4-91); the field is along
     /// the axis' projection perpendicular to the direction.
-    Dipole { axis: DVec3 },
+    Dipole {
+        /// Unit vector along the dipole.
+        axis: DVec3,
+    },
 }
 
 impl Antenna {

@@ -52,21 +52,32 @@ pub const MAX_PNG_WIDTH: u32 = 8192;
 /// A transmitter ready to simulate.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Transmitter {
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position: DVec3,
+    /// Carrier frequency, GHz.
     pub freq_ghz: f64,
+    /// Transmit power, dBm.
     pub power_dbm: f64,
+    /// Antenna pattern.
     pub antenna: Antenna,
 }
 
 /// Everything a simulation needs besides the world.
 #[derive(Clone, Debug, Serialize)]
 pub struct RfConfig {
+    /// Transmitters.
     pub transmitters: Vec<Transmitter>,
+    /// Coverage grid.
     pub grid: GridSpec,
+    /// Rays per transmitter.
     pub rays: u64,
+    /// Maximum number of reflections (and transmissions) per ray.
     pub max_depth: u32,
+    /// Seed of the random number generator.
     pub seed: u64,
+    /// Use ITU-R P.2040 fits outside their frequency ranges.
     pub extrapolate: bool,
     /// Walls as thin slabs that reflect and transmit (ITU-R P.2040-3 single layer), each
     /// of its material's thickness; otherwise opaque half-spaces that only reflect.
@@ -79,7 +90,9 @@ pub struct RfConfig {
     /// Scattering coefficient `S` of every surface, overriding the materials'
     /// (`--scattering-coefficient`; diffuse reflection, docs/radio.md, sec. 4).
     pub scattering_coefficient: Option<f64>,
+    /// Longest ray path, metres.
     pub max_path_m: f64,
+    /// Point receivers.
     pub receivers: Vec<PointReceiver>,
     /// The channel frequency response to write at the point receivers, if asked.
     pub cfr: Option<CfrSpec>,
@@ -95,14 +108,18 @@ pub struct RfConfig {
 /// other transmitters' power.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct NoiseSpec {
+    /// Receiver noise figure, dB.
     pub noise_figure_db: f64,
+    /// Noise bandwidth, Hz.
     pub bandwidth_hz: f64,
+    /// Noise temperature `T0`, kelvin.
     pub temperature_k: f64,
     /// `10 log10(k T0 B F / 1 mW)`.
     pub noise_power_dbm: f64,
 }
 
 impl NoiseSpec {
+    /// Noise of figure `noise_figure_db` (dB) over `bandwidth_hz` (Hz).
     pub fn new(noise_figure_db: f64, bandwidth_hz: f64) -> Self {
         let watts = BOLTZMANN_J_PER_K * NOISE_TEMPERATURE_K * bandwidth_hz;
         Self {
@@ -123,7 +140,9 @@ impl NoiseSpec {
 /// (`--vmin-db`, `--vmax-db`) or automatic (`None`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct ColourRange {
+    /// Lower end, dB (`None`: automatic).
     pub vmin_db: Option<f64>,
+    /// Upper end, dB (`None`: automatic).
     pub vmax_db: Option<f64>,
 }
 
@@ -175,7 +194,9 @@ pub const DEFAULT_CFR_POINTS: usize = 256;
 /// transmitter's carrier (the centres of `points` equal sub-bands).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct CfrSpec {
+    /// Width of the band, Hz.
     pub bandwidth_hz: f64,
+    /// Number of frequencies.
     pub points: usize,
 }
 

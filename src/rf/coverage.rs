@@ -29,8 +29,11 @@ pub const MIN_CROSSING_COS: f64 = 1.0e-3;
 pub struct GridSpec {
     /// Lower corner (x, y) of cell (0, 0), metres.
     pub min_m: [f64; 2],
+    /// Cell side, metres.
     pub cell_m: f64,
+    /// Cells along x.
     pub nx: usize,
+    /// Cells along y.
     pub ny: usize,
     /// Height of the plane, metres.
     pub height_m: f64,
@@ -59,6 +62,7 @@ impl GridSpec {
         Ok(Self { min_m: min, cell_m, nx: nx as usize, ny: ny as usize, height_m })
     }
 
+    /// Number of cells.
     pub fn cells(&self) -> usize {
         self.nx * self.ny
     }
@@ -81,6 +85,7 @@ impl GridSpec {
         [self.min_m[0] + (i as f64 + 0.5) * self.cell_m, self.min_m[1] + (j as f64 + 0.5) * self.cell_m]
     }
 
+    /// Area of one cell, m^2.
     pub fn cell_area_m2(&self) -> f64 {
         self.cell_m * self.cell_m
     }
@@ -88,6 +93,7 @@ impl GridSpec {
 
 /// The shared accumulator a launch deposits into.
 pub struct CoverageAccumulator {
+    /// The grid.
     pub spec: GridSpec,
     sum: Vec<AtomicU64>,
     paths: Vec<AtomicU32>,
@@ -96,6 +102,7 @@ pub struct CoverageAccumulator {
 }
 
 impl CoverageAccumulator {
+    /// An empty accumulator over `spec`.
     pub fn new(spec: GridSpec) -> Self {
         let n = spec.cells();
         Self {
@@ -183,6 +190,7 @@ impl CoverageAccumulator {
 /// A launch's deposits per cell in fixed point: integer sums, exact in any order.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CellTotals {
+    /// The grid.
     pub spec: GridSpec,
     /// Sum of `weight / |cos theta|` per cell, scaled by `FIXED_SCALE`.
     pub sum: Vec<u64>,
@@ -206,6 +214,7 @@ impl CellTotals {
 /// A finished coverage map.
 #[derive(Clone, Debug)]
 pub struct Coverage {
+    /// The grid.
     pub spec: GridSpec,
     /// Average path gain over each cell, linear (0 = no ray).
     pub path_gain: Vec<f64>,
@@ -214,6 +223,7 @@ pub struct Coverage {
 }
 
 impl Coverage {
+    /// A map of `spec` that no ray reached.
     pub fn empty(spec: GridSpec) -> Self {
         Self { spec, path_gain: vec![0.0; spec.cells()], paths: vec![0; spec.cells()] }
     }

@@ -1,9 +1,9 @@
 //! First-order edge diffraction by the uniform theory of diffraction (UTD): the path
 //! transmitter -> a point Q of a wedge's edge -> receiver, with Q given by Keller's law (the
 //! path makes equal angles with the edge on both sides), the Kouyoumjian-Pathak diffraction
-//! coefficient ([Kouyoumjian1974] in docs/references.md) and, for wedges of finite
+//! coefficient (\[Kouyoumjian1974\] in docs/references.md) and, for wedges of finite
 //! conductivity, the Fresnel reflection coefficients of the two faces in its reflection
-//! terms ([Luebbers1984]; Sionna RT does the same since 1.2). No reflection comes before or
+//! terms (\[Luebbers1984\]; Sionna RT does the same since 1.2). No reflection comes before or
 //! after the diffraction. The wedges are the core's ([`crate::core::wedges`]): edges between
 //! two non-coplanar triangles and rims of open surfaces (half-planes), with a free exterior.
 //!
@@ -126,7 +126,9 @@ fn a_of(beta: f64, n: f64, sign: f64) -> f64 {
 /// The reflection coefficients (TE, TM) that weigh the reflection terms of a wedge.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FaceReflection {
+    /// TE reflection coefficient.
     pub te: Complex,
+    /// TM reflection coefficient.
     pub tm: Complex,
 }
 

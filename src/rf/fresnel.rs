@@ -19,14 +19,19 @@ pub const C0: f64 = 299_792_458.0;
 /// A complex number (f64), just what the radio code needs.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Complex {
+    /// Real part.
     pub re: f64,
+    /// Imaginary part.
     pub im: f64,
 }
 
 impl Complex {
+    /// Zero.
     pub const ZERO: Self = Self { re: 0.0, im: 0.0 };
+    /// One.
     pub const ONE: Self = Self { re: 1.0, im: 0.0 };
 
+    /// `re + i im`.
     pub const fn new(re: f64, im: f64) -> Self {
         Self { re, im }
     }
@@ -42,14 +47,17 @@ impl Complex {
         self.re * self.re + self.im * self.im
     }
 
+    /// Modulus.
     pub fn abs(self) -> f64 {
         self.re.hypot(self.im)
     }
 
+    /// Complex conjugate.
     pub fn conj(self) -> Self {
         Self::new(self.re, -self.im)
     }
 
+    /// Times the real `k`.
     pub fn scale(self, k: f64) -> Self {
         Self::new(self.re * k, self.im * k)
     }
@@ -132,9 +140,13 @@ pub fn reflection(eta: Complex, cos_theta: f64) -> (Complex, Complex) {
 /// Reflection and transmission coefficients of a slab of thickness `d_m` in air.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SlabCoefficients {
+    /// TE reflection coefficient.
     pub r_te: Complex,
+    /// TM reflection coefficient.
     pub r_tm: Complex,
+    /// TE transmission coefficient.
     pub t_te: Complex,
+    /// TM transmission coefficient.
     pub t_tm: Complex,
 }
 

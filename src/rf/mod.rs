@@ -181,17 +181,21 @@ pub fn surface_scattering(world: &World, scattering_coefficient: Option<f64>) ->
 /// The radio constants a surface was simulated with.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct SurfaceRadio {
+    /// Surface name.
     pub surface: String,
+    /// Material name.
     pub material: Option<String>,
-    /// Real and imaginary parts of the complex relative permittivity at the carrier.
+    /// Real part of the complex relative permittivity at the carrier.
     pub eta_re: f64,
+    /// Imaginary part of the complex relative permittivity at the carrier.
     pub eta_im: f64,
     /// |Gamma| at normal incidence (half-space).
     pub normal_incidence_reflection: f64,
     /// Slab thickness, metres, when walls transmit (`null` when they are opaque).
     pub thickness_m: Option<f64>,
-    /// |R| and |T| of the slab at normal incidence, when walls transmit.
+    /// |R| of the slab at normal incidence, when walls transmit.
     pub normal_incidence_slab_reflection: Option<f64>,
+    /// |T| of the slab at normal incidence, when walls transmit.
     pub normal_incidence_slab_transmission: Option<f64>,
     /// Diffuse reflection: `S`, `K_x` and the pattern (docs/radio.md, sec. 4).
     pub scattering: RadioScattering,
@@ -200,6 +204,7 @@ pub struct SurfaceRadio {
 /// One transmitter's share of a result.
 #[derive(Clone, Debug)]
 pub struct TransmitterResult {
+    /// Transmitter name.
     pub name: String,
     /// Transmit power, mW.
     pub power_mw: f64,
@@ -211,6 +216,7 @@ pub struct TransmitterResult {
     pub receivers: Vec<PathSum>,
     /// Reflection order the receiver search used (may be below `max_depth` in large scenes).
     pub receiver_depth: u32,
+    /// Wall time of the ray tracing, seconds.
     pub trace_seconds: f64,
     /// Ray segments traced for the map (launches, reflections, transmissions), all processes.
     pub segments: u64,
@@ -230,9 +236,11 @@ pub struct RfResult {
     pub settings: PhysicsSettings,
     /// Received power per cell, mW, summed over the transmitters.
     pub rx_power_mw: Vec<f64>,
+    /// Each transmitter's share.
     pub transmitters: Vec<TransmitterResult>,
     /// Name of every surface of the scene, by `SurfaceId` (for the paths' interactions).
     pub surface_names: Vec<String>,
+    /// Wall time, seconds.
     pub seconds: f64,
 }
 
@@ -284,7 +292,9 @@ pub struct BestServer {
 /// What a map was computed with, in words: the picture's title and `coverage.json` say it.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PhysicsSettings {
+    /// Rays per transmitter.
     pub rays_per_transmitter: u64,
+    /// Maximum number of reflections (and transmissions) per ray.
     pub max_depth: u32,
     /// ITU-R P.2040 fits used outside their frequency ranges (`--extrapolate`).
     pub extrapolate: bool,
@@ -593,6 +603,8 @@ fn add_paths(sum: &mut PathSum, records: Vec<receivers::PathRecord>) {
 /// A point receiver of the coherent mode.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct PointReceiver {
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position: DVec3,
 }

@@ -50,6 +50,7 @@ pub struct RfOptions {
     /// Maximum number of reflections (and transmissions) per ray (default: the scene's, else 3).
     #[arg(long)]
     pub max_depth: Option<u32>,
+    /// Seed of the random number generator.
     #[arg(long)]
     pub seed: Option<u64>,
     /// Use ITU-R P.2040 fits outside their frequency ranges.

@@ -106,12 +106,17 @@ pub fn write_coverage_csv(path: &Path, config: &RfConfig, result: &RfResult) -> 
 /// One point receiver's line in the summary.
 #[derive(Serialize, Debug)]
 pub struct ReceiverSummary {
+    /// Transmitter name.
     pub transmitter: String,
+    /// Receiver name.
     pub name: String,
+    /// Receiver position, metres.
     pub position: [f64; 3],
     /// Exact specular paths found (image method, up to `max_order` reflections).
     pub paths: usize,
+    /// Highest reflection order searched.
     pub max_order: u32,
+    /// Whether the direct path is unobstructed.
     pub line_of_sight: bool,
     /// `10 log10 |sum h|^2` (phase kept), dB; null when no path.
     pub coherent_path_gain_db: Option<f64>,
@@ -126,34 +131,45 @@ pub struct ReceiverSummary {
 /// The radio constants used for one transmitter.
 #[derive(Serialize, Debug)]
 pub struct TransmitterSurfaces {
+    /// Transmitter name.
     pub transmitter: String,
+    /// Carrier frequency, GHz.
     pub freq_ghz: f64,
+    /// Each surface's radio constants.
     pub surfaces: Vec<super::SurfaceRadio>,
 }
 
 /// Statistics of the map.
 #[derive(Serialize, Debug)]
 pub struct MapStats {
+    /// Cells of the grid.
     pub cells: usize,
+    /// Cells with a positive path gain.
     pub reached_cells: usize,
+    /// Highest path gain over the reached cells, dB.
     pub max_path_gain_db: Option<f64>,
+    /// Lowest path gain over the reached cells, dB.
     pub min_path_gain_db: Option<f64>,
+    /// Median path gain over the reached cells, dB.
     pub median_path_gain_db: Option<f64>,
+    /// Ray crossings summed over the cells.
     pub total_ray_crossings: u64,
 }
 
 /// One transmitter's own map.
 #[derive(Serialize, Debug)]
 pub struct TransmitterMap {
+    /// Transmitter name.
     pub transmitter: String,
+    /// Statistics of its map.
     pub map: MapStats,
     /// Cells where this transmitter is the best server (several transmitters only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub best_server_cells: Option<usize>,
-    /// Cells reached by at least one diffracted path, and the wedges whose edge this
-    /// transmitter sees (diffraction on only).
+    /// Cells reached by at least one diffracted path (diffraction on only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub diffracted_cells: Option<usize>,
+    /// Wedges whose edge this transmitter sees (diffraction on only).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lit_wedges: Option<usize>,
     /// Wall time of the diffraction (map and receivers), seconds.
@@ -163,8 +179,11 @@ pub struct TransmitterMap {
 /// The JSON summary: every parameter, the estimator, timings and receivers.
 #[derive(Serialize, Debug)]
 pub struct Summary<'a> {
+    /// Version of propsim.
     pub propsim_version: &'static str,
+    /// Scene file.
     pub scene: String,
+    /// The estimator, in words.
     pub estimator: &'static str,
     /// The best-server and SINR columns' definition (several transmitters only).
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -172,15 +191,20 @@ pub struct Summary<'a> {
     /// Rays, depth, extrapolation, transmission (with the walls' thickness and its source)
     /// and diffraction, in words.
     pub physics: super::PhysicsSettings,
+    /// The configuration.
     pub config: &'a RfConfig,
     /// The colour scale of the coverage pictures, dB of path gain (`null`: empty map).
     pub colour_range_db: Option<[f64; 2]>,
+    /// Worker threads.
     pub threads: usize,
+    /// Wall time, seconds.
     pub seconds: f64,
+    /// Rays traced per second.
     pub rays_per_second: f64,
     /// Ray segments traced for the maps (launches, reflections, transmissions), and per
     /// second of tracing.
     pub segments: u64,
+    /// Ray segments traced per second.
     pub segments_per_second: f64,
     /// The combined map (all transmitters).
     pub map: MapStats,
@@ -188,7 +212,9 @@ pub struct Summary<'a> {
     pub transmitter_maps: Vec<TransmitterMap>,
     /// Per transmitter: the surfaces' complex permittivities at its carrier.
     pub surfaces: Vec<TransmitterSurfaces>,
+    /// Point receivers.
     pub receivers: Vec<ReceiverSummary>,
+    /// Files written.
     pub outputs: Vec<String>,
 }
 

@@ -63,12 +63,15 @@ pub fn footprints(mesh: &TriangleMesh, h: f64) -> Vec<[(f64, f64); 2]> {
 
 /// What to draw besides the map.
 pub struct PlotExtras<'a> {
+    /// Title.
     pub title: &'a str,
     /// A second, smaller title line (the propagation settings).
     pub subtitle: &'a str,
+    /// Wall footprints at the grid height: segments of (x, y) end points.
     pub footprints: &'a [[(f64, f64); 2]],
     /// Transmitter (x, y) positions and names.
     pub transmitters: &'a [(f64, f64)],
+    /// Transmitter names.
     pub transmitter_names: &'a [String],
 }
 

@@ -32,11 +32,14 @@ use rand::RngCore;
 /// A complex 3-vector: the (phasor) electric field direction and amplitude of a ray.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FieldVec {
+    /// Real part.
     pub re: DVec3,
+    /// Imaginary part.
     pub im: DVec3,
 }
 
 impl FieldVec {
+    /// A field with a real vector `v`.
     pub fn real(v: DVec3) -> Self {
         Self { re: v, im: DVec3::ZERO }
     }
@@ -56,10 +59,12 @@ impl FieldVec {
         Self { re: u * c.re, im: u * c.im }
     }
 
+    /// The field times the complex `c`.
     pub fn scale(&self, c: Complex) -> Self {
         Self { re: self.re * c.re - self.im * c.im, im: self.re * c.im + self.im * c.re }
     }
 
+    /// The sum of two fields.
     pub fn add(&self, o: &Self) -> Self {
         Self { re: self.re + o.re, im: self.im + o.im }
     }
@@ -69,8 +74,11 @@ impl FieldVec {
 /// `p_out = s x k_out` (see [`crate::rf::fresnel`] for the convention).
 #[derive(Clone, Copy, Debug)]
 pub struct LocalBasis {
+    /// TE direction, `k x n` normalised.
     pub s: DVec3,
+    /// TM direction of the incoming ray, `s x k_in`.
     pub p_in: DVec3,
+    /// TM direction of the outgoing ray, `s x k_out`.
     pub p_out: DVec3,
     /// Cosine of the incidence angle, in [0, 1].
     pub cos_theta: f64,
@@ -152,6 +160,7 @@ pub struct SurfacePhysics {
     /// Walls are thin slabs that also transmit, each surface (indexed by `SurfaceId`) of
     /// this thickness, metres; or (`None`) opaque half-spaces that only reflect.
     pub slab_thickness_m: Option<Vec<f64>>,
+    /// Wavelength, metres.
     pub wavelength_m: f64,
     /// Diffuse reflection of each surface (indexed by `SurfaceId`); a surface beyond the end
     /// is purely specular (`S = 0`).
@@ -212,8 +221,11 @@ impl SurfacePhysics {
 /// expected `|E|^2` is `G(dir) prod |Gamma|^2` (power relative to `P_tx / N`), the product
 /// over the interactions of the branch the path took (`|R|^2` or `|T|^2`).
 pub struct RadioPropagation<'a> {
+    /// Transmitter antenna.
     pub antenna: Antenna,
+    /// Surfaces' radio physics.
     pub physics: &'a SurfacePhysics,
+    /// The coverage grid the rays deposit into.
     pub grid: &'a CoverageAccumulator,
 }
 
@@ -221,7 +233,9 @@ pub struct RadioPropagation<'a> {
 /// fixed-point deposit), added to the grid when the block is merged.
 #[derive(Debug, Default)]
 pub struct RadioAccum {
+    /// Ray segments traced.
     pub segments: u64,
+    /// Grid crossings: cell index and fixed-point deposit.
     pub crossings: Vec<(u32, u64)>,
 }
 
@@ -301,8 +315,11 @@ impl Propagation for RadioPropagation<'_> {
 /// What a ray becomes at an interaction: its branch, its field (weighted) and its direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Interacted {
+    /// Which branch the ray took.
     pub branch: Branch,
+    /// Its field after the interaction (weighted).
     pub field: FieldVec,
+    /// Its new direction.
     pub direction: DVec3,
 }
 
@@ -499,6 +516,7 @@ pub fn diffuse_polarization(e: &FieldVec, k_in: DVec3, k_s: DVec3, xpd_coefficie
 pub enum Branch {
     /// Specular reflection.
     Reflected,
+    /// Transmission through the wall.
     Transmitted,
     /// Diffuse reflection (a surface with `S > 0`).
     Diffuse,

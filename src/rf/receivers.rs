@@ -34,6 +34,7 @@ pub struct PathSum {
     pub path_orders: Vec<usize>,
     /// Length of each path, metres, in the same order.
     pub path_lengths_m: Vec<f64>,
+    /// Whether the direct path is unobstructed.
     pub line_of_sight: bool,
     /// `|sum h|^2`, linear.
     pub coherent_gain: f64,
@@ -47,10 +48,16 @@ pub struct PathSum {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Interaction {
     /// A specular reflection on this surface (`SurfaceId`).
-    Reflection { surface: u32 },
+    Reflection {
+        /// The surface (`SurfaceId`).
+        surface: u32,
+    },
     /// A first-order edge diffraction on the wedge between these surfaces (face 0, face n;
     /// the same twice on a rim), see [`crate::rf::diffraction`].
-    Diffraction { surfaces: [u32; 2] },
+    Diffraction {
+        /// The surfaces of face 0 and face n (`SurfaceId`).
+        surfaces: [u32; 2],
+    },
 }
 
 /// One path of a channel impulse response (docs/radio.md, sec. 3).

@@ -7,10 +7,13 @@ use super::error::SceneError;
 
 /// A scene shipped inside the binary: its files, by name, and which one to load.
 pub struct BuiltinScene {
+    /// Name.
     pub name: &'static str,
+    /// Description in words.
     pub description: &'static str,
     /// The file to load (a scene TOML or an OBJ), one of `files`.
     pub main: &'static str,
+    /// The files: (name, content).
     pub files: &'static [(&'static str, &'static str)],
 }
 

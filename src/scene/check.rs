@@ -11,8 +11,11 @@ use crate::core::TriangleMesh;
 /// that repeat vertices per object or per group are judged by their geometry.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MeshReport {
+    /// Number of triangles.
     pub triangles: usize,
+    /// Number of distinct vertices (welded by exact position).
     pub distinct_vertices: usize,
+    /// Number of distinct edges.
     pub edges: usize,
     /// Edges used by exactly one triangle (holes, open sheets).
     pub open_edges: usize,
@@ -20,6 +23,7 @@ pub struct MeshReport {
     pub over_shared_edges: usize,
     /// Two-triangle edges whose triangles run the edge in the same direction (flipped faces).
     pub misoriented_edges: usize,
+    /// Total area, m^2.
     pub total_area_m2: f64,
     /// Area per surface id, square metres.
     pub area_by_surface_m2: Vec<f64>,
@@ -41,7 +45,9 @@ pub struct MeshReport {
 /// One connected component.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct ComponentReport {
+    /// Number of triangles.
     pub triangles: usize,
+    /// Area, m^2.
     pub area_m2: f64,
     /// Signed volume; positive when normals point outward of the enclosed region.
     pub signed_volume_m3: f64,
@@ -50,14 +56,17 @@ pub struct ComponentReport {
     /// All triangles lie in one plane (a zero-thickness sheet, e.g. a partition between two
     /// solids that share it).
     pub planar: bool,
+    /// Bounding box corners (lower, upper), metres.
     pub bounds: (Vec3, Vec3),
 }
 
 impl MeshReport {
+    /// Whether every edge is shared by exactly two triangles.
     pub fn is_closed(&self) -> bool {
         self.triangles > 0 && self.open_edges == 0 && self.over_shared_edges == 0
     }
 
+    /// Whether no edge has flipped neighbours.
     pub fn is_consistently_oriented(&self) -> bool {
         self.misoriented_edges == 0
     }

@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 
 use super::materials::MaterialSpec;
 
+/// A point or vector as written in a scene file, metres.
 pub type Point3 = [f32; 3];
 
 /// A whole scene file.
@@ -31,13 +32,19 @@ pub struct SceneDesc {
     /// Inline materials; they override the library and the materials files.
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
+    /// The camera of the images, if the scene sets one.
     pub camera: Option<CameraDesc>,
+    /// Suggested render settings.
     pub render: Option<RenderDesc>,
+    /// Point lights of the images.
     #[serde(default)]
     pub lights: Vec<PointLightDesc>,
+    /// Analytic spheres.
     #[serde(default)]
     pub spheres: Vec<SphereDesc>,
+    /// Room-acoustics settings, sources and receivers.
     pub acoustic: Option<AcousticDesc>,
+    /// Radio settings, transmitters, grid and receivers.
     pub rf: Option<RfDesc>,
 }
 
@@ -45,14 +52,20 @@ pub struct SceneDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct CameraDesc {
+    /// Camera position, metres.
     pub eye: Point3,
+    /// Point the camera looks at, metres.
     pub target: Point3,
+    /// Up direction.
     #[serde(default = "default_up")]
     pub up: Point3,
+    /// Vertical field of view, degrees.
     #[serde(default = "default_fov")]
     pub fov_deg: f32,
+    /// Radius of the thin lens, metres (0: a pinhole).
     #[serde(default)]
     pub aperture_radius_m: f32,
+    /// Distance to the plane in focus, metres.
     pub focus_distance_m: Option<f32>,
 }
 
@@ -68,11 +81,17 @@ fn default_fov() -> f32 {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct RenderDesc {
+    /// Image width, pixels.
     pub width: Option<u32>,
+    /// Image height, pixels.
     pub height: Option<u32>,
+    /// Samples per pixel.
     pub spp: Option<u32>,
+    /// Maximum number of bounces.
     pub max_depth: Option<u32>,
+    /// Integrator name.
     pub integrator: Option<String>,
+    /// Radiance of rays that leave the scene (linear RGB).
     pub background: Option<Point3>,
     /// PNG exposure, stops (radiance x 2^EV before the tone map); EXR stays linear.
     pub exposure_ev: Option<f32>,
@@ -84,7 +103,9 @@ pub struct RenderDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PointLightDesc {
+    /// Position, metres.
     pub position: Point3,
+    /// Radiant intensity, W/sr per RGB channel.
     pub intensity: Point3,
 }
 
@@ -92,8 +113,11 @@ pub struct PointLightDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct SphereDesc {
+    /// Centre, metres.
     pub center: Point3,
+    /// Radius, metres.
     pub radius_m: f32,
+    /// Material name.
     pub material: String,
 }
 
@@ -101,13 +125,20 @@ pub struct SphereDesc {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct AcousticDesc {
+    /// Air temperature, degrees Celsius.
     pub temperature_c: Option<f32>,
+    /// Relative humidity, percent.
     pub relative_humidity_percent: Option<f32>,
+    /// Atmospheric pressure, kPa.
     pub pressure_kpa: Option<f32>,
+    /// Rays per source.
     pub rays: Option<u64>,
+    /// Length of the histograms, seconds.
     pub max_time_s: Option<f32>,
+    /// Sound sources.
     #[serde(default)]
     pub sources: Vec<PointDesc>,
+    /// Receivers.
     #[serde(default)]
     pub receivers: Vec<PointDesc>,
 }
@@ -116,7 +147,9 @@ pub struct AcousticDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct PointDesc {
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position: Point3,
     /// Receiver sphere radius, metres.
     pub radius_m: Option<f32>,
@@ -139,11 +172,17 @@ pub struct PointDesc {
 #[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
 #[serde(rename_all = "kebab-case")]
 pub enum PatternName {
+    /// Alike in every direction.
     Omni,
+    /// Cardioid.
     Cardioid,
+    /// Supercardioid.
     Supercardioid,
+    /// Hypercardioid.
     Hypercardioid,
+    /// Figure of eight.
     FigureOfEight,
+    /// A first-order pattern set by `directivity_alpha`.
     Mix,
 }
 
@@ -151,7 +190,9 @@ pub enum PatternName {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(untagged)]
 pub enum AlphaDesc {
+    /// One value for every band.
     One(f32),
+    /// One value per octave band.
     Bands([f32; 8]),
 }
 
@@ -159,12 +200,18 @@ pub enum AlphaDesc {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct RfDesc {
+    /// Carrier frequency, GHz.
     pub freq_ghz: Option<f64>,
+    /// Maximum number of reflections (and transmissions) per ray.
     pub max_depth: Option<u32>,
+    /// Rays per transmitter.
     pub rays: Option<u64>,
+    /// Transmitters.
     #[serde(default)]
     pub transmitters: Vec<TransmitterDesc>,
+    /// Coverage grid.
     pub grid: Option<GridDesc>,
+    /// Point receivers.
     #[serde(default)]
     pub receivers: Vec<PointDesc>,
 }
@@ -173,9 +220,13 @@ pub struct RfDesc {
 #[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct TransmitterDesc {
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position: Point3,
+    /// Carrier frequency, GHz (default: the `rf` section's).
     pub freq_ghz: Option<f64>,
+    /// Transmit power, dBm.
     pub power_dbm: Option<f64>,
     /// "isotropic" or "dipole".
     pub antenna: Option<String>,
@@ -189,8 +240,12 @@ pub struct TransmitterDesc {
 #[derive(Clone, Debug, Default, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct GridDesc {
+    /// Height of the grid plane, metres.
     pub height_m: Option<f32>,
+    /// Cell side, metres.
     pub cell_m: Option<f32>,
+    /// Lower corner (x, y), metres.
     pub min: Option<[f32; 2]>,
+    /// Upper corner (x, y), metres.
     pub max: Option<[f32; 2]>,
 }

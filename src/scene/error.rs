@@ -5,15 +5,32 @@ use std::path::PathBuf;
 /// A problem with the user's scene, OBJ or materials file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
+    /// The file does not exist.
     #[error("{}: file not found", path.display())]
-    NotFound { path: PathBuf },
+    NotFound {
+        /// The file.
+        path: PathBuf,
+    },
+    /// The file exists but cannot be read.
     #[error("{}: cannot read: {reason}", path.display())]
-    Unreadable { path: PathBuf, reason: String },
+    Unreadable {
+        /// The file.
+        path: PathBuf,
+        /// Why, in words.
+        reason: String,
+    },
+    /// The file's content is wrong.
     #[error("{}: {message}", path.display())]
-    Invalid { path: PathBuf, message: String },
+    Invalid {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong, in words.
+        message: String,
+    },
 }
 
 impl SceneError {
+    /// An `Invalid` error about `path`.
     pub fn invalid(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
         SceneError::Invalid { path: path.into(), message: message.into() }
     }

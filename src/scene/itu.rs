@@ -6,12 +6,17 @@
 pub struct ItuMaterial {
     /// snake_case name used in material files (`itu = "..."`).
     pub name: &'static str,
-    /// Valid frequency range, GHz (inclusive).
+    /// Lower end of the valid frequency range, GHz (inclusive).
     pub freq_min_ghz: f64,
+    /// Upper end of the valid frequency range, GHz (inclusive).
     pub freq_max_ghz: f64,
+    /// `a` of `eps_r' = a f^b`.
     pub a: f64,
+    /// `b` of `eps_r' = a f^b`.
     pub b: f64,
+    /// `c` of `sigma = c f^d`.
     pub c: f64,
+    /// `d` of `sigma = c f^d`.
     pub d: f64,
 }
 
@@ -26,6 +31,7 @@ impl ItuMaterial {
         self.c * freq_ghz.powf(self.d)
     }
 
+    /// Whether `freq_ghz` lies in the valid frequency range.
     pub fn covers(&self, freq_ghz: f64) -> bool {
         (self.freq_min_ghz..=self.freq_max_ghz).contains(&freq_ghz)
     }

@@ -29,12 +29,17 @@ pub struct Surface {
 pub struct Scene {
     /// The file the user named (scene TOML or OBJ).
     pub path: PathBuf,
+    /// The OBJ file.
     pub obj_path: PathBuf,
+    /// The triangles.
     pub mesh: TriangleMesh,
     /// Indexed by `SurfaceId`; triangle surfaces first, then one per sphere material.
     pub surfaces: Vec<Surface>,
+    /// Analytic spheres.
     pub spheres: Vec<Sphere>,
+    /// The scene description.
     pub desc: SceneDesc,
+    /// The materials.
     pub library: MaterialLibrary,
     /// Non-fatal findings (dropped degenerate triangles, ...), one line each.
     pub warnings: Vec<String>,

@@ -44,7 +44,10 @@ pub enum ScatteringPattern {
     #[default]
     Lambertian,
     /// `f_s ~ ((1 + cos psi_R) / 2)^alpha_r` around the specular direction, `alpha_r >= 1`.
-    Directive { alpha_r: u32 },
+    Directive {
+        /// Width parameter of the lobe, `>= 1`.
+        alpha_r: u32,
+    },
 }
 
 /// Radio diffuse reflection of a material (Sionna RT's `RadioMaterial` parameters): the
@@ -64,8 +67,15 @@ pub struct RadioScattering {
 /// Radio data: an ITU-R P.2040-3 Table 3 material, or explicit constants.
 #[derive(Clone, Debug, PartialEq)]
 pub enum RadioProps {
+    /// An ITU-R P.2040-3 Table 3 material, by name.
     Itu(String),
-    Explicit { relative_permittivity: f64, conductivity_s_per_m: f64 },
+    /// Explicit constants.
+    Explicit {
+        /// Real relative permittivity.
+        relative_permittivity: f64,
+        /// Conductivity, S/m.
+        conductivity_s_per_m: f64,
+    },
 }
 
 impl std::fmt::Display for RadioProps {
@@ -87,15 +97,19 @@ impl std::fmt::Display for RadioProps {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum OpticalKind {
+    /// Lambertian diffuse.
     #[default]
     Diffuse,
+    /// Metal (conductor) reflection.
     Metal,
+    /// Dielectric (glass-like) reflection and refraction.
     Dielectric,
 }
 
 /// Optical data (linear RGB).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct OpticalProps {
+    /// Kind of surface.
     pub kind: OpticalKind,
     /// Diffuse albedo, or metal reflectance at normal incidence.
     pub color: Vec3,
@@ -122,11 +136,15 @@ impl Default for OpticalProps {
 /// A resolved material.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
+    /// Name.
     pub name: String,
+    /// Description in words.
     pub description: String,
     /// Provenance of the data.
     pub source: String,
+    /// Acoustic data, if any.
     pub acoustic: Option<AcousticProps>,
+    /// Radio data, if any.
     pub radio: Option<RadioProps>,
     /// Thickness of a wall of this material, metres, for radio transmission through thin
     /// slabs (ITU-R P.2040-3 sec. 2.2.2.2); `None`: the simulator's default.
@@ -142,7 +160,9 @@ pub struct Material {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(untagged)]
 pub enum ScalarOrBands {
+    /// One value for every band.
     Scalar(f32),
+    /// One value per band.
     Bands(Vec<f32>),
 }
 
@@ -150,11 +170,14 @@ pub enum ScalarOrBands {
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialSpec {
+    /// Description in words.
     pub description: Option<String>,
+    /// Provenance of the data.
     pub source: Option<String>,
     /// Absorption per octave band: 6 values (125 Hz - 4 kHz), 8 values (63 Hz - 8 kHz), or as
     /// many as `bands_hz` lists.
     pub absorption: Option<ScalarOrBands>,
+    /// Scattering coefficient: one value or one per band, as `absorption`.
     pub scattering: Option<ScalarOrBands>,
     /// Octave centres (Hz) the arrays refer to, when not the 6- or 8-band default.
     pub bands_hz: Option<Vec<f32>>,
@@ -162,7 +185,9 @@ pub struct MaterialSpec {
     pub itu: Option<String>,
     /// Why the radio data were chosen (appended to `source`).
     pub radio_source: Option<String>,
+    /// Real relative permittivity.
     pub relative_permittivity: Option<f64>,
+    /// Conductivity, S/m.
     pub conductivity_s_per_m: Option<f64>,
     /// Wall thickness for radio transmission through thin slabs, metres (positive).
     pub thickness_m: Option<f64>,
@@ -174,10 +199,15 @@ pub struct MaterialSpec {
     pub scattering_pattern: Option<String>,
     /// Width parameter of the directive pattern, an integer >= 1.
     pub alpha_r: Option<i64>,
+    /// Colour (linear RGB).
     pub color: Option<[f32; 3]>,
+    /// Optical kind.
     pub kind: Option<OpticalKind>,
+    /// Roughness.
     pub roughness: Option<f32>,
+    /// Index of refraction.
     pub ior: Option<f32>,
+    /// Emitted radiance (linear RGB).
     pub emission: Option<[f32; 3]>,
 }
 
@@ -234,6 +264,7 @@ impl MaterialSpec {
 #[derive(Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct MaterialsFile {
+    /// The entries, by name.
     #[serde(default)]
     pub materials: BTreeMap<String, MaterialSpec>,
 }
@@ -433,6 +464,7 @@ impl MaterialSpec {
 /// gives ([`MaterialSpec::merged_with`]).
 #[derive(Clone, Debug, Default)]
 pub struct MaterialLibrary {
+    /// The resolved materials, by name.
     pub materials: BTreeMap<String, Material>,
     /// Each material as written, merged entry by entry: what a later entry is merged into.
     specs: BTreeMap<String, MaterialSpec>,
@@ -482,6 +514,7 @@ impl MaterialLibrary {
         self.add_toml(path, &text)
     }
 
+    /// The material named `name`, if any.
     pub fn get(&self, name: &str) -> Option<&Material> {
         self.materials.get(name)
     }

@@ -14,18 +14,26 @@ use crate::core::TriangleMesh;
 /// What an MTL file says about one material (linear RGB as written).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct MtlEntry {
+    /// Diffuse colour (`Kd`).
     pub diffuse: Option<[f32; 3]>,
+    /// Specular colour (`Ks`).
     pub specular: Option<[f32; 3]>,
+    /// Specular exponent (`Ns`).
     pub shininess: Option<f32>,
+    /// Index of refraction (`Ni`).
     pub optical_density: Option<f32>,
+    /// Opacity (`d`).
     pub dissolve: Option<f32>,
+    /// Emitted colour (`Ke`).
     pub emission: Option<[f32; 3]>,
+    /// Illumination model (`illum`).
     pub illumination_model: Option<u8>,
 }
 
 /// A loaded OBJ.
 #[derive(Debug, Default)]
 pub struct ObjScene {
+    /// The triangles.
     pub mesh: TriangleMesh,
     /// MTL data for the surfaces it defines, by `usemtl` name.
     pub mtl: BTreeMap<String, MtlEntry>,

@@ -11,42 +11,71 @@ use super::World;
 /// The report `propsim info` prints.
 #[derive(Serialize, Debug)]
 pub struct InfoReport {
+    /// Scene file path.
     pub scene: String,
+    /// OBJ file path.
     pub obj: String,
+    /// Number of triangles.
     pub triangles: usize,
+    /// Number of distinct vertices.
     pub vertices: usize,
+    /// Lower corner of the bounding box, metres.
     pub bounds_min_m: [f32; 3],
+    /// Upper corner of the bounding box, metres.
     pub bounds_max_m: [f32; 3],
+    /// Total surface area of the mesh, m^2.
     pub total_area_m2: f64,
     /// Surface area of the analytic spheres, m^2 (4 pi r^2 each), not in `total_area_m2`.
     pub sphere_area_m2: f64,
+    /// Each surface, its material and area.
     pub surfaces: Vec<SurfaceInfo>,
+    /// Whether every edge is shared by exactly two triangles.
     pub closed: bool,
+    /// Edges used by one triangle only.
     pub open_edges: usize,
+    /// Edges shared by more than two triangles.
     pub over_shared_edges: usize,
+    /// Edges whose two triangles have flipped orientations.
     pub misoriented_edges: usize,
+    /// Whether neighbouring triangles are wound alike.
     pub consistently_oriented: bool,
+    /// Connected components of the mesh.
     pub components: usize,
+    /// Closed connected components.
     pub closed_components: usize,
+    /// Volume of air, m^3; `None` when the scene encloses no air.
     pub air_volume_m3: Option<f64>,
+    /// Sum of signed tetrahedron volumes over all triangles (divergence theorem), m^3.
     pub divergence_volume_m3: f64,
+    /// Sources, transmitters and receivers, and whether each is inside.
     pub points: Vec<PointInfo>,
+    /// Warnings from loading the scene.
     pub warnings: Vec<String>,
 }
 
+/// One surface's line in the report.
 #[derive(Serialize, Debug)]
 pub struct SurfaceInfo {
+    /// Surface name.
     pub name: String,
+    /// Material name, `None` when only the MTL file gives one.
     pub material: Option<String>,
+    /// Area, m^2.
     pub area_m2: f64,
+    /// Whether the material has acoustic data.
     pub acoustic: bool,
+    /// The material's radio data, in words.
     pub radio: Option<String>,
 }
 
+/// One point of the scene (source, receiver, transmitter) in the report.
 #[derive(Serialize, Debug)]
 pub struct PointInfo {
+    /// What the point is ("acoustic source", "transmitter", ...).
     pub kind: String,
+    /// Name.
     pub name: String,
+    /// Position, metres.
     pub position_m: [f32; 3],
     /// `None` when the scene encloses no air.
     pub inside: Option<bool>,

@@ -47,12 +47,16 @@ fn triangle_distance(p: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
 
 /// A scene ready for tracing.
 pub struct World {
+    /// The loaded scene.
     pub scene: Scene,
+    /// The acceleration structure.
     pub accel: Accel,
+    /// The mesh's topology and measures.
     pub report: MeshReport,
 }
 
 impl World {
+    /// Builds the acceleration structure and the mesh report of `scene`.
     pub fn build(scene: Scene) -> Self {
         let accel = Accel::build(&scene.mesh, scene.spheres.clone(), BuildQuality::default());
         let report = analyze(&scene.mesh);
