@@ -203,22 +203,7 @@ pub fn dispatch(command: Command, cluster: &Cluster) -> anyhow::Result<()> {
     }
 }
 
-/// Parses "x,y,z" into three finite numbers.
-pub fn parse_point(s: &str) -> Result<[f32; 3], String> {
-    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
-    if parts.len() != 3 {
-        return Err(format!("\"{s}\": expected X,Y,Z"));
-    }
-    let mut out = [0.0; 3];
-    for (o, p) in out.iter_mut().zip(&parts) {
-        let v: f32 = p.parse().map_err(|_| format!("\"{p}\" is not a number"))?;
-        if !v.is_finite() {
-            return Err(format!("\"{p}\" is not finite"));
-        }
-        *o = v;
-    }
-    Ok(out)
-}
+pub use crate::scene::parse_point;
 
 /// The scene used when a command is given none.
 pub const DEFAULT_SCENE: &str = "builtin:bras_cr2";
@@ -226,17 +211,4 @@ pub const DEFAULT_SCENE: &str = "builtin:bras_cr2";
 /// Default output directory of every simulator.
 pub fn default_out_dir() -> PathBuf {
     PathBuf::from("out")
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn points_parse_and_reject_garbage() {
-        assert_eq!(parse_point("1, 2.5,-3").unwrap(), [1.0, 2.5, -3.0]);
-        assert!(parse_point("1,2").is_err());
-        assert!(parse_point("1,2,nan").is_err());
-        assert!(parse_point("a,b,c").is_err());
-    }
 }

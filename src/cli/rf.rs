@@ -15,17 +15,7 @@ use crate::rf::plot::{PlotExtras, db_range, footprints, write_best_server_png, w
 use crate::rf::{Overrides, RfConfig, RfResult, simulate, simulate_on};
 use crate::scene::World;
 
-fn parse_xy(s: &str) -> Result<[f64; 2], String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|_| format!("\"{s}\": expected X,Y"))?;
-    match v[..] {
-        [x, y] if x.is_finite() && y.is_finite() => Ok([x, y]),
-        _ => Err(format!("\"{s}\": expected two finite numbers X,Y")),
-    }
-}
+use crate::scene::parse_xy;
 
 #[derive(Args, Debug, Clone)]
 pub struct RfArgs {

@@ -329,17 +329,14 @@ pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
         None
     };
     let acoustic_plan = if selected(Part::Acoustic) {
-        let mut extra = Vec::new();
-        if let Some(r) = args.rays.or(args.quick.then_some(QUICK_ACOUSTIC_RAYS)) {
-            extra.extend(["--rays".to_string(), r.to_string()]);
-        }
-        if args.quick {
-            extra.extend(["--ism-order".to_string(), QUICK_ISM_ORDER.to_string()]);
-        }
-        let super::Command::Acoustic(aargs) = sub_args(args, "acoustic", "--out", &args.out, &extra)? else {
-            anyhow::bail!("internal error: the acoustic arguments parsed as another command");
+        let d = crate::acoustic::AcousticOptions::default();
+        let options = crate::acoustic::AcousticOptions {
+            rays: args.rays.or(args.quick.then_some(QUICK_ACOUSTIC_RAYS)),
+            ism_order: if args.quick { QUICK_ISM_ORDER } else { d.ism_order },
+            seed: args.seed,
+            ..d
         };
-        match super::acoustic::plan(&aargs, &world, &scene_label) {
+        match crate::acoustic::plan(&world, &options, &scene_label) {
             Ok(p) => {
                 for n in &p.notes {
                     tell!("note: acoustic part: {n}");

@@ -8,6 +8,7 @@ pub mod itu;
 pub mod load;
 pub mod materials;
 pub mod obj;
+pub mod placement;
 pub mod world;
 
 pub use check::{MeshReport, analyze};
@@ -15,4 +16,5 @@ pub use desc::SceneDesc;
 pub use error::SceneError;
 pub use load::{LoadOptions, Scene, Surface, UpAxis, load};
 pub use materials::{Material, MaterialLibrary};
+pub use placement::{parse_point, parse_xy, place_inside};
 pub use world::World;

@@ -1,0 +1,109 @@
+//! The acoustic simulation's options as a user gives them: the flags of `propsim acoustic`,
+//! the keyword arguments of the Python module's `acoustic()`, one type with one set of
+//! defaults (the scene file's `[acoustic]` table fills what they leave out).
+
+use serde::Deserialize;
+
+use super::AcousticSettings;
+
+/// What a user may set for one acoustic run. Every field has the command line's default;
+/// `None` means "the scene's value, else the built-in default" (see [`super::plan`]).
+#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq)]
+#[serde(default, deny_unknown_fields)]
+pub struct AcousticOptions {
+    /// Source position X,Y,Z (repeatable); replaces the scene's sources.
+    #[arg(long = "source", value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub sources: Vec<[f32; 3]>,
+    /// Receiver position X,Y,Z (repeatable); replaces the scene's receivers.
+    #[arg(long = "receiver", value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub receivers: Vec<[f32; 3]>,
+    /// Rays per source (default: the scene's, else 200000).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=MAX_RAYS))]
+    pub rays: Option<u64>,
+    /// Random seed: the same seed gives the same results for any thread or process count.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Histogram length, s (default: as long as the traced energy lasts, so every decay runs
+    /// to its end; a warning says when a decay given a limit did not reach 35 dB).
+    #[arg(long)]
+    pub max_time_s: Option<f64>,
+    /// Highest image-source order for the early specular reflections (0 to 6).
+    #[arg(long, default_value_t = 2)]
+    pub ism_order: u32,
+    /// Receiver radius, m (default: a rule from room volume and ray count).
+    #[arg(long)]
+    pub receiver_radius_m: Option<f32>,
+    /// Switch off air absorption.
+    #[arg(long)]
+    pub no_air: bool,
+    /// Switch off diffuse rain (receivers then count only the rays that cross them).
+    #[arg(long)]
+    pub no_diffuse_rain: bool,
+    /// Switch off ray splitting (rays far stronger than the room's average decay leaves
+    /// them are otherwise split into copies, which smooths the late decay).
+    #[arg(long)]
+    pub no_splitting: bool,
+    /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
+    /// higher is smoother late decay for more time.
+    #[arg(long)]
+    pub roulette_db: Option<f64>,
+    /// Air temperature, C (default: the scene's, else 20).
+    #[arg(long)]
+    pub temperature_c: Option<f64>,
+    /// Relative humidity, % (default: the scene's, else 50).
+    #[arg(long)]
+    pub humidity_percent: Option<f64>,
+}
+
+/// Most rays per source one run may ask for.
+pub const MAX_RAYS: u64 = 1_000_000_000;
+
+/// Highest image-source order: the number of image sources grows as (planes)^order.
+pub const MAX_ISM_ORDER: u32 = 6;
+
+impl Default for AcousticOptions {
+    fn default() -> Self {
+        let d = AcousticSettings::default();
+        Self {
+            sources: Vec::new(),
+            receivers: Vec::new(),
+            rays: None,
+            seed: d.seed,
+            max_time_s: None,
+            ism_order: d.ism_order,
+            receiver_radius_m: None,
+            no_air: false,
+            no_diffuse_rain: false,
+            no_splitting: false,
+            roulette_db: None,
+            temperature_c: None,
+            humidity_percent: None,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        options: AcousticOptions,
+    }
+
+    #[test]
+    fn the_command_line_and_the_library_share_one_set_of_defaults() {
+        let parsed = Cmd::try_parse_from(["acoustic"]).expect("no flags parse");
+        assert_eq!(parsed.options, AcousticOptions::default());
+        let from_json: AcousticOptions = serde_json::from_str("{}").expect("empty options parse");
+        assert_eq!(from_json, AcousticOptions::default());
+    }
+
+    #[test]
+    fn unknown_options_are_refused_by_name() {
+        let e = serde_json::from_str::<AcousticOptions>(r#"{"rayz": 10}"#).unwrap_err().to_string();
+        assert!(e.contains("rayz"), "{e}");
+    }
+}

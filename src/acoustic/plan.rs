@@ -1,0 +1,106 @@
+//! The acoustic run's pre-flight: from the user's [`AcousticOptions`] and the scene to the
+//! checked sources, receivers and settings of a [`Plan`], before any ray is traced.
+
+use anyhow::Context as _;
+use glam::Vec3;
+
+use super::options::MAX_ISM_ORDER;
+use super::{AcousticOptions, AcousticSettings, Air, ReceiverSpec, SourceSpec};
+use crate::scene::{World, place_inside};
+
+/// What the acoustic part will simulate: its sources and receivers (the flags', the scene's,
+/// or placed inside the room) and its settings, all checked.
+#[derive(Clone, Debug)]
+pub struct Plan {
+    /// The sources to simulate.
+    pub sources: Vec<SourceSpec>,
+    /// The receivers to simulate.
+    pub receivers: Vec<ReceiverSpec>,
+    /// The simulation settings, defaults filled.
+    pub settings: AcousticSettings,
+    /// What was decided for the user (a source or receiver placed), one line each.
+    pub notes: Vec<String>,
+}
+
+/// The acoustic part's pre-flight: everything that can be checked before tracing (a closed
+/// room, acoustic data on every surface, usable sources and receivers, placed when none is
+/// given, and the settings). The error is one line naming the scene `scene_label`.
+pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyhow::Result<Plan> {
+    let desc = world.scene.desc.acoustic.clone().unwrap_or_default();
+    let (scene_sources, scene_receivers) = crate::acoustic::scene_points(world);
+    let mut sources: Vec<SourceSpec> = if options.sources.is_empty() {
+        scene_sources
+    } else {
+        options
+            .sources
+            .iter()
+            .enumerate()
+            .map(|(i, p)| SourceSpec { name: format!("S{}", i + 1), position: *p, power_w: 1.0 })
+            .collect()
+    };
+    let mut receivers: Vec<ReceiverSpec> = if options.receivers.is_empty() {
+        scene_receivers
+            .into_iter()
+            .map(|r| ReceiverSpec { radius_m: options.receiver_radius_m.or(r.radius_m), ..r })
+            .collect()
+    } else {
+        options
+            .receivers
+            .iter()
+            .enumerate()
+            .map(|(i, p)| ReceiverSpec {
+                name: format!("R{}", i + 1),
+                position: *p,
+                radius_m: options.receiver_radius_m,
+            })
+            .collect()
+    };
+    crate::acoustic::check(world).map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    let mut notes = Vec::new();
+    if sources.is_empty() {
+        let p = place_inside(world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
+            format!("{scene_label}: found no place for a source 0.5 m from every surface")
+        })?;
+        notes.push(format!("no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z));
+        sources.push(SourceSpec { name: "S1".into(), position: p.to_array(), power_w: 1.0 });
+    }
+    if receivers.is_empty() {
+        let p = place_inside(world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
+            format!("{scene_label}: found no place for a receiver 0.5 m from every surface")
+        })?;
+        notes.push(format!("no receiver given; placed R1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z));
+        receivers.push(ReceiverSpec {
+            name: "R1".into(),
+            position: p.to_array(),
+            radius_m: options.receiver_radius_m,
+        });
+    }
+    let air = Air {
+        temperature_c: options.temperature_c.or(desc.temperature_c.map(f64::from)).unwrap_or(20.0),
+        relative_humidity_percent: options
+            .humidity_percent
+            .or(desc.relative_humidity_percent.map(f64::from))
+            .unwrap_or(50.0),
+        pressure_kpa: desc.pressure_kpa.map_or(101.325, f64::from),
+    };
+    let settings = AcousticSettings {
+        rays: options.rays.or(desc.rays).unwrap_or(AcousticSettings::default().rays),
+        seed: options.seed,
+        max_time_s: options.max_time_s.or(desc.max_time_s.map(f64::from)),
+        air,
+        air_absorption: !options.no_air,
+        diffuse_rain: !options.no_diffuse_rain,
+        ism_order: options.ism_order,
+        roulette_db: options.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
+        split_copies: if options.no_splitting { 1 } else { AcousticSettings::default().split_copies },
+        ..Default::default()
+    };
+    anyhow::ensure!(
+        options.ism_order <= MAX_ISM_ORDER,
+        "--ism-order {}: at most {MAX_ISM_ORDER}",
+        options.ism_order
+    );
+    crate::acoustic::check_points(world, &sources, &receivers)
+        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    Ok(Plan { sources, receivers, settings, notes })
+}
