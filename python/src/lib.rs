@@ -88,7 +88,8 @@ fn word(v: &Bound<'_, PyAny>) -> PyResult<String> {
     if !is_number(v)
         && let Ok(items) = v.try_iter()
     {
-        let parts = items.map(|i| i.and_then(|i| i.str()?.extract::<String>())).collect::<PyResult<Vec<_>>>()?;
+        let parts =
+            items.map(|i| i.and_then(|i| i.str()?.extract::<String>())).collect::<PyResult<Vec<_>>>()?;
         return Ok(parts.join(","));
     }
     v.str()?.extract()
@@ -310,7 +311,7 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
         let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
         let label = args.scene.display().to_string();
         warnings.extend(sheet_warning(&world, &label));
-        let plan = cli::acoustic::plan(&args, &world, &label)?;
+        let plan = propsim::acoustic::plan(&world, &args.options, &label)?;
         if writes {
             propsim::io::atomic::check_writable(&args.out, true)?;
         }
@@ -338,26 +339,16 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
         }
         let mut files = Vec::new();
         if writes {
-            let extrapolated = cli::acoustic::extrapolated_bands(&world);
-            files = cli::acoustic::write_outputs(&args.out, &result, result.volume_m3, s.seed, &extrapolated)?;
-            // acoustic.json as `propsim acoustic` writes it.
-            let path = args.out.join("acoustic.json");
-            let json = serde_json::json!({
-                "propsim_version": propsim_version(),
-                "scene": label,
-                "sources": plan.sources,
-                "receivers": plan.receivers,
-                "result": result,
-                "wall_time_s": started.elapsed().as_secs_f64(),
-                "trace_time_s": traced_s,
-                "processes": 1,
-                "notes": {
-                    "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
-                    "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",
-                },
-            });
-            propsim::io::atomic::write_bytes(&path, serde_json::to_string_pretty(&json)?.as_bytes())?;
-            files.push(path);
+            files = propsim::acoustic::output::write_all(
+                &args.out,
+                &world,
+                &plan,
+                &result,
+                &label,
+                &propsim::dist::Cluster::solo(),
+                traced_s,
+                started,
+            )?;
         }
         let mut info = to_json(&result)?;
         let extra = serde_json::json!({
@@ -365,7 +356,7 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
             "sources": plan.sources,
             "receivers": plan.receivers,
             "notes": plan.notes,
-            "metric_names": &cli::acoustic::METRICS_COLUMNS[3..],
+            "metric_names": &propsim::acoustic::output::METRICS_COLUMNS[3..],
             "sample_rate_hz": propsim::acoustic::impulse_response::SAMPLE_RATE_HZ,
             "seconds": started.elapsed().as_secs_f64(),
             "warnings": warnings,
@@ -378,7 +369,7 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
     })?;
     let d = json_dict(py, &info)?;
     d.set_item("histogram", result.histogram_array().into_pyarray(py))?;
-    d.set_item("metrics", cli::acoustic::metrics_array(&result).into_pyarray(py))?;
+    d.set_item("metrics", propsim::acoustic::output::metrics_array(&result).into_pyarray(py))?;
     let irs = PyList::new(py, irs.into_iter().map(|ir| ir.into_pyarray(py)))?;
     d.set_item("impulse_responses", irs)?;
     Ok(d)
@@ -459,7 +450,8 @@ fn run<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyRes
     let manifest = detached(py, call.threads, move || {
         cli::run::run(&args, &propsim::dist::Cluster::solo())?;
         let path = args.out.join("manifest.json");
-        let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
+        let text =
+            std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
         Ok(text)
     })?;
     py.import("json")?.call_method1("loads", (manifest,))
