@@ -18,7 +18,7 @@ use numpy::IntoPyArray;
 use pyo3::create_exception;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyList, PyString};
+use pyo3::types::{PyBool, PyDict, PyList, PyString, PyTuple};
 
 use propsim::cli::{self, Cli, Command};
 use propsim::scene::World;
@@ -120,7 +120,10 @@ fn words(sim: Sim, scene: &str, options: &Bound<'_, PyDict>) -> PyResult<(Vec<St
     let mut writes = sim == Sim::Run;
     for (key, value) in options.iter() {
         let key: String = key.extract()?;
-        if value.is_none() {
+        // None, like an empty list of points, leaves the flag out: the default.
+        if value.is_none()
+            || ((value.is_instance_of::<PyList>() || value.is_instance_of::<PyTuple>()) && value.len()? == 0)
+        {
             continue;
         }
         // The Python names of the repeatable flags are plurals.

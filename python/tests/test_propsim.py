@@ -204,3 +204,20 @@ def test_defaults_are_the_cli_defaults():
     a = propsim.acoustic("builtin:shoebox", rays=500, sources=[(2, 2, 1.5)], receivers=[(6, 5, 1.5)])
     assert a["settings"]["seed"] == 1 and a["settings"]["ism_order"] == 2
     assert a["settings"]["air_absorption"] is True
+
+
+def test_points_as_numpy_arrays_and_empty_lists():
+    points = np.array([[2.0, 2.0, 1.5], [6.0, 5.0, 1.5], [6.0, 2.0, 1.5]])
+    a = propsim.acoustic("builtin:shoebox", sources=points[:1], receivers=points[1:], rays=500, ism_order=0)
+    assert [p["receiver"] for p in a["pairs"]] == ["R1", "R2"]
+    assert [p["distance_m"] for p in a["pairs"]] == pytest.approx([5.0, 4.0], rel=1e-6)
+    # An empty list is no flag: the scene's sources and receivers.
+    scene = propsim.acoustic("builtin:shoebox", rays=500, ism_order=0)
+    b = propsim.acoustic("builtin:shoebox", sources=[], receivers=(), rays=500, ism_order=0)
+    assert b["sources"] == scene["sources"] and b["receivers"] == scene["receivers"]
+
+
+def test_the_cli_warnings_are_python_warnings():
+    with pytest.warns(propsim.PropsimWarning, match="S1 -> R1: receiver within 1 m of the source"):
+        a = propsim.acoustic("builtin:shoebox", sources=[(2, 2, 1.5)], receivers=[(2, 2.5, 1.5)], rays=500)
+    assert any("within 1 m" in w for w in a["warnings"])
