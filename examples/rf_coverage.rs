@@ -2,14 +2,14 @@
 //! `cargo run --release --example rf_coverage`.
 
 use propsim::rf::output::{summary, write_coverage_csv};
-use propsim::rf::{Overrides, RfConfig, simulate};
+use propsim::rf::{RfOptions, RfConfig, simulate};
 use propsim::scene::{LoadOptions, World, load};
 
 fn main() -> anyhow::Result<()> {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/rooms/street_canyon/scene.toml");
     let world = World::build(load(path.as_ref(), &LoadOptions::default())?);
     // The scene's transmitter and grid, with 10^6 rays and 2 m cells.
-    let overrides = Overrides { rays: Some(1_000_000), cell_m: Some(2.0), ..Overrides::default() };
+    let overrides = RfOptions { rays: Some(1_000_000), cell_m: Some(2.0), ..RfOptions::default() };
     let config = RfConfig::from_scene(&world, &overrides).map_err(anyhow::Error::msg)?;
     let result = simulate(&world, &config, &|_| {})?;
     let out = std::env::temp_dir().join("propsim_rf_example.csv");

@@ -11,4 +11,5 @@ pub mod dist;
 pub mod io;
 pub mod render;
 pub mod rf;
+pub mod run;
 pub mod scene;

@@ -151,10 +151,10 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
     ]) else {
         panic!("not acoustic")
     };
-    assert_eq!(a.receivers, [[-0.993, 1.426, 1.23]]);
-    assert_eq!(a.sources, [[-1.0, 2.0, 3.0]]);
-    assert_eq!(a.temperature_c, Some(-5.0));
-    assert_eq!(a.rays, Some(10));
+    assert_eq!(a.options.receivers, [[-0.993, 1.426, 1.23]]);
+    assert_eq!(a.options.sources, [[-1.0, 2.0, 3.0]]);
+    assert_eq!(a.options.temperature_c, Some(-5.0));
+    assert_eq!(a.options.rays, Some(10));
     assert_eq!(a.scene.to_str(), Some("room.toml"));
 
     // A negative value, then the positional scene.
@@ -163,7 +163,7 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
         panic!("not acoustic")
     };
     assert_eq!(
-        (a.receivers, a.rays, a.scene.to_str()),
+        (a.options.receivers, a.options.rays, a.scene.to_str()),
         (vec![[-1.0, 2.0, 1.2]], Some(10), Some("room.toml"))
     );
 
@@ -172,7 +172,10 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
     else {
         panic!("not render")
     };
-    assert_eq!((r.eye, r.target, r.fov_deg), (Some([-4.0, 0.0, 1.0]), Some([0.0, -2.5, -0.1]), Some(-3.0)));
+    assert_eq!(
+        (r.options.eye, r.options.target, r.options.fov_deg),
+        (Some([-4.0, 0.0, 1.0]), Some([0.0, -2.5, -0.1]), Some(-3.0))
+    );
 
     let Command::Rf(f) = parse(&[
         "rf",
@@ -187,7 +190,7 @@ fn negative_values_of_the_issue_parse_to_their_numbers() {
         panic!("not rf")
     };
     assert_eq!(
-        (f.grid_min, f.grid_max, f.tx_power_dbm),
+        (f.options.grid_min, f.options.grid_max, f.options.tx_power_dbm),
         (Some([-90.0, -60.0]), Some([-10.0, -5.0]), Some(-7.5))
     );
 

@@ -13,7 +13,7 @@ use std::time::{Duration, Instant};
 
 use propsim::cli::bench_trace::{read_rays, write_rays};
 use propsim::core::Ray;
-use propsim::rf::{Overrides, RfConfig};
+use propsim::rf::{RfConfig, RfOptions};
 use propsim::scene::obj::load_obj;
 use propsim::scene::{self, LoadOptions, MaterialLibrary, World};
 
@@ -259,7 +259,7 @@ fn use_scene(result: Result<scene::Scene, scene::SceneError>) {
     let world = World::build(s);
     let _ = world.check_acoustic_points();
     let _ = propsim::acoustic::simulate::surface_acoustics(&world);
-    let _ = RfConfig::from_scene(&world, &Overrides::default());
+    let _ = RfConfig::from_scene(&world, &RfOptions::default());
     let _ = propsim::cli::info::report(&world, &[]);
 }
 

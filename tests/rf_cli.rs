@@ -334,13 +334,13 @@ fn diffuse_reflection_is_off_unless_a_scattering_coefficient_is_given() {
 fn street_canyon_map_agrees_with_the_exact_paths_at_the_receivers() {
     // The stochastic map's cell value against the exact image-method power sum at the two
     // line-of-sight receivers (direct, ground, facades; up to 3 reflections).
-    use propsim::rf::{Overrides, RfConfig, simulate};
+    use propsim::rf::{RfConfig, RfOptions, simulate};
     use propsim::scene::{LoadOptions, World, load};
     let world = World::build(load(CANYON.as_ref(), &LoadOptions::default()).unwrap());
     // The image method finds the reflected paths only, so the map is made with opaque walls
     // (`--no-transmission`): under the defaults it would also hold the paths through the
     // buildings, which the exact sum leaves out.
-    let o = Overrides { rays: Some(2_000_000), no_transmission: true, ..Overrides::default() };
+    let o = RfOptions { rays: Some(2_000_000), no_transmission: true, ..RfOptions::default() };
     let config = RfConfig::from_scene(&world, &o).unwrap();
     let result = simulate(&world, &config, &|_| {}).unwrap();
     let tx = &result.transmitters[0];

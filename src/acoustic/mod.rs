@@ -5,17 +5,17 @@
 pub mod air;
 pub mod image_source;
 pub mod impulse_response;
+pub mod job;
 pub mod metrics;
 pub mod options;
 pub mod output;
-pub mod plan;
 pub mod room;
 pub mod simulate;
 pub mod tracer;
 
 pub use air::Air;
+pub use job::{Plan, execute, plan};
 pub use options::AcousticOptions;
-pub use plan::{Plan, plan};
 pub use simulate::{
     AcousticResult, AcousticSettings, NO_AIR, PairResult, ReceiverSpec, SourceSpec, check, check_points,
     scene_points, simulate, simulate_on,

@@ -330,7 +330,8 @@ pub fn summary_text(r: &AcousticResult) -> String {
 }
 
 /// Writes every output of a finished run into `out` (rank 0 only: the caller holds the
-/// result) and `acoustic.json` with the plan, the result and the times; returns the files.
+/// result) and `acoustic.json` with the plan, the result and the times since `started`
+/// (tracing ends as this is called); returns the files.
 pub fn write_all(
     out: &Path,
     world: &World,
@@ -338,9 +339,9 @@ pub fn write_all(
     result: &AcousticResult,
     scene_label: &str,
     cluster: &Cluster,
-    trace_time_s: f64,
     started: std::time::Instant,
 ) -> anyhow::Result<Vec<PathBuf>> {
+    let trace_time_s = started.elapsed().as_secs_f64();
     let mut written =
         write_outputs(out, result, result.volume_m3, plan.settings.seed, &extrapolated_bands(world))?;
     let summary_path = out.join("acoustic.json");

@@ -1,12 +1,11 @@
 //! `propsim acoustic`: impulse responses, histograms and ISO 3382-1 parameters of a room.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use clap::Args;
 
-use crate::acoustic::output::summary_text;
-use crate::acoustic::{AcousticOptions, Plan, simulate_on};
+use crate::acoustic::AcousticOptions;
 use crate::dist::Cluster;
 use crate::scene::World;
 
@@ -27,51 +26,6 @@ pub struct AcousticArgs {
     pub out: PathBuf,
 }
 
-/// Runs a checked [`Plan`] and (on rank 0) writes every output into `out`, printing the
-/// summary; returns the files written (`None` on the other ranks). `started` is when the job
-/// began, for the wall time in acoustic.json.
-pub fn execute(
-    world: &World,
-    plan: &Plan,
-    out: &Path,
-    scene_label: &str,
-    cluster: &Cluster,
-    started: Instant,
-) -> anyhow::Result<Option<Vec<PathBuf>>> {
-    let Plan { sources, receivers, settings, .. } = plan;
-    let bar = super::progress::bar(settings.rays * sources.len() as u64, "rays");
-    let result = simulate_on(cluster, world, sources, receivers, settings, &|n| bar.inc(n))
-        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
-    bar.finish_and_clear();
-    // Only rank 0 holds the result and writes.
-    let Some(result) = result else { return Ok(None) };
-    let traced_s = started.elapsed().as_secs_f64();
-    let written = crate::acoustic::output::write_all(
-        out,
-        world,
-        plan,
-        &result,
-        scene_label,
-        cluster,
-        traced_s,
-        started,
-    )?;
-    say!("{}", summary_text(&result).trim_end());
-    for p in &result.pairs {
-        for w in &p.warnings {
-            tell!("warning: {} -> {}: {w}", p.source, p.receiver);
-        }
-    }
-    say!(
-        "wrote {} files to {} ({} rays/source, {:.2} s)",
-        written.len(),
-        out.display(),
-        settings.rays,
-        started.elapsed().as_secs_f64()
-    );
-    Ok(Some(written))
-}
-
 pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
     let world = super::load_world(&args.scene, &args.materials, &args.model)?;
@@ -85,7 +39,18 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.out, true)?;
     }
-    execute(&world, &plan, &args.out, &scene_label, cluster, started)?;
+    let report = super::progress::Terminal;
+    let done =
+        crate::acoustic::execute(&world, &plan, Some(&args.out), &scene_label, cluster, &report, started)?;
+    if let Some(done) = done {
+        say!(
+            "wrote {} files to {} ({} rays/source, {:.2} s)",
+            done.files.len(),
+            args.out.display(),
+            plan.settings.rays,
+            started.elapsed().as_secs_f64()
+        );
+    }
     Ok(())
 }
 

@@ -50,7 +50,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(
         &format!("a {}x{} render", args.width, args.height),
-        u64::from(args.width) * u64::from(args.height) * super::render::BYTES_PER_PIXEL,
+        u64::from(args.width) * u64::from(args.height) * crate::render::options::BYTES_PER_PIXEL,
     )?;
     let cam: Camera =
         scene_camera(&world, args.width as f32 / args.height as f32).map_err(|e| anyhow::anyhow!("{e}"))?;

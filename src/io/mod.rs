@@ -5,6 +5,7 @@ pub mod atomic;
 pub mod memory;
 pub mod npy;
 pub mod plot;
+pub mod report;
 pub mod stdout;
 pub mod wav;
 

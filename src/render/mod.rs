@@ -21,8 +21,10 @@ pub mod bsdf;
 pub mod camera;
 pub mod distributed;
 pub mod film;
+pub mod job;
 pub mod lanes;
 pub mod lights;
+pub mod options;
 pub mod path;
 pub mod raycast;
 pub mod sampler;
@@ -48,7 +50,9 @@ use crate::scene::{Surface, World};
 pub use bsdf::Bsdf;
 pub use camera::Camera;
 pub use film::Film;
+pub use job::RenderPlan;
 pub use lights::{Light, Lights};
+pub use options::RenderOptions;
 
 /// Random-stream domain of the per-pixel streams (see [`crate::core::rng::stream`]).
 pub const PIXEL_DOMAIN: u64 = 0x5245_4e44; // "REND"

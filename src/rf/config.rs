@@ -6,6 +6,7 @@ use serde::Serialize;
 use super::PointReceiver;
 use super::antenna::{Antenna, Polarization};
 use super::coverage::GridSpec;
+use super::options::RfOptions;
 use crate::scene::World;
 
 /// Carrier frequency when neither the command line nor the scene gives one, GHz.
@@ -43,6 +44,11 @@ pub const NOISE_TEMPERATURE_K: f64 = 290.0;
 /// Boltzmann's constant, J/K (exact in the 2019 SI).
 pub const BOLTZMANN_J_PER_K: f64 = 1.380_649e-23;
 
+/// Narrowest coverage picture, pixels: the margins, colour bar and a map 100 pixels wide.
+pub const MIN_PNG_WIDTH: u32 = 300;
+/// Widest coverage picture, pixels.
+pub const MAX_PNG_WIDTH: u32 = 8192;
+
 /// A transmitter ready to simulate.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Transmitter {
@@ -51,52 +57,6 @@ pub struct Transmitter {
     pub freq_ghz: f64,
     pub power_dbm: f64,
     pub antenna: Antenna,
-}
-
-/// Values given on the command line; each replaces the scene's.
-#[derive(Clone, Debug, Default)]
-pub struct Overrides {
-    /// One transmitter here instead of the scene's.
-    pub tx: Option<[f32; 3]>,
-    pub freq_ghz: Option<f64>,
-    pub tx_power_dbm: Option<f64>,
-    /// "isotropic" or "dipole".
-    pub antenna: Option<String>,
-    pub polarization: Option<String>,
-    /// Dipole axis.
-    pub orientation: Option<[f32; 3]>,
-    pub grid_height_m: Option<f64>,
-    pub cell_m: Option<f64>,
-    pub grid_min: Option<[f64; 2]>,
-    pub grid_max: Option<[f64; 2]>,
-    pub rays: Option<u64>,
-    pub max_depth: Option<u32>,
-    pub seed: Option<u64>,
-    pub extrapolate: bool,
-    /// Walls are opaque half-spaces that only reflect (transmission is on by default).
-    pub no_transmission: bool,
-    /// No first-order edge diffraction (it is on by default; `--no-diffraction`).
-    pub no_diffraction: bool,
-    /// Slab thickness of every wall, metres, instead of the materials' `thickness_m`.
-    pub wall_thickness_m: Option<f64>,
-    /// Radio scattering coefficient `S` of every surface, instead of the materials'
-    /// `scattering_coefficient` (docs/radio.md, sec. 4).
-    pub scattering_coefficient: Option<f64>,
-    /// Bandwidth of the channel frequency response at the point receivers, MHz.
-    pub cfr_bandwidth_mhz: Option<f64>,
-    /// Frequency points of the channel frequency response (default [`DEFAULT_CFR_POINTS`]).
-    pub cfr_points: Option<u64>,
-    /// Extra point receivers.
-    pub receivers: Vec<[f32; 3]>,
-    /// Ignore the scene's point receivers.
-    pub no_receivers: bool,
-    /// Receiver noise figure, dB (default [`DEFAULT_NOISE_FIGURE_DB`]).
-    pub noise_figure_db: Option<f64>,
-    /// Receiver bandwidth, MHz (default [`DEFAULT_BANDWIDTH_MHZ`]).
-    pub bandwidth_mhz: Option<f64>,
-    /// Bottom and top of the coverage pictures' colour scale, dB of path gain.
-    pub vmin_db: Option<f64>,
-    pub vmax_db: Option<f64>,
 }
 
 /// Everything a simulation needs besides the world.
@@ -127,6 +87,8 @@ pub struct RfConfig {
     pub noise: NoiseSpec,
     /// The coverage pictures' colour scale.
     pub colour_range: ColourRange,
+    /// Width of coverage.png, pixels.
+    pub png_width: u32,
 }
 
 /// Thermal noise at a receiver, `N = k T0 B F` (`T0` = 290 K): what the SINR adds to the
@@ -257,7 +219,13 @@ fn positive(v: f64, what: &str) -> Result<f64, String> {
 
 impl RfConfig {
     /// The scene's radio settings with `o` applied; errors are one line.
-    pub fn from_scene(world: &World, o: &Overrides) -> Result<Self, String> {
+    pub fn from_scene(world: &World, o: &RfOptions) -> Result<Self, String> {
+        if !(MIN_PNG_WIDTH..=MAX_PNG_WIDTH).contains(&o.png_width) {
+            return Err(format!(
+                "--png-width {}: must be between {MIN_PNG_WIDTH} and {MAX_PNG_WIDTH} pixels",
+                o.png_width
+            ));
+        }
         let rf = world.scene.desc.rf.clone().unwrap_or_default();
         let scene_freq = rf.freq_ghz;
         let mut transmitters = Vec::new();
@@ -419,6 +387,7 @@ impl RfConfig {
             cfr,
             noise,
             colour_range,
+            png_width: o.png_width,
         })
     }
 }

@@ -19,14 +19,17 @@ pub mod config;
 pub mod coverage;
 pub mod diffraction;
 pub mod fresnel;
+pub mod job;
+pub mod options;
 pub mod output;
 pub mod plot;
 pub mod propagation;
 pub mod receivers;
 
 pub use antenna::{Antenna, Polarization};
-pub use config::{ColourRange, NoiseSpec, Overrides, RfConfig, Transmitter};
+pub use config::{ColourRange, NoiseSpec, RfConfig, Transmitter};
 pub use coverage::{Coverage, CoverageAccumulator, GridSpec};
+pub use options::RfOptions;
 
 use glam::DVec3;
 

@@ -5,12 +5,16 @@
 
 use std::path::Path;
 
+use anyhow::Context as _;
+
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::config::CfrSpec;
+use super::plot::{PlotExtras, db_range, footprints, write_best_server_png, write_coverage_png};
 use super::receivers::{Interaction, PathRecord, azimuth_zenith_deg, frequency_response};
 use super::{RfConfig, RfResult};
+use crate::scene::World;
 
 /// What `path_gain_db` means, repeated in the JSON summary and the README.
 pub const ESTIMATOR: &str = "path_gain_db is the average path gain over the cell, 10 log10 g with \
@@ -518,4 +522,116 @@ pub fn write_receiver_outputs(
         written.push(cfr_npy);
     }
     Ok(written)
+}
+/// The map's one-line summary: grid, cells reached, rays and time.
+pub fn map_line(scene_label: &str, config: &RfConfig, s: &Summary, seconds: f64) -> String {
+    format!(
+        "{}: {} x {} cells of {} m at z = {} m, {} reached; {} rays/tx in {:.2} s",
+        scene_label,
+        config.grid.nx,
+        config.grid.ny,
+        crate::io::tidy(config.grid.cell_m, 6),
+        crate::io::tidy(config.grid.height_m, 6),
+        s.map.reached_cells,
+        config.rays,
+        seconds
+    )
+}
+
+/// Writes `coverage.csv`, `coverage.png` and `coverage.json` into `out`; with several
+/// transmitters also `coverage_TX.png` per transmitter and `best_server.png`; with point
+/// receivers `paths.csv`, a `pdp_RECEIVER.png` each and (if asked) `cfr.csv`.
+pub fn write_outputs<'a>(
+    out: &std::path::Path,
+    scene_name: &str,
+    world: &World,
+    config: &'a RfConfig,
+    result: &'a RfResult,
+) -> anyhow::Result<Summary<'a>> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create directory", out.display()))?;
+    let csv = out.join("coverage.csv");
+    let png = out.join("coverage.png");
+    let json = out.join("coverage.json");
+    let npy = out.join("coverage.npy");
+    let feet = footprints(&world.scene.mesh, config.grid.height_m);
+    let txs: Vec<(f64, f64)> = config.transmitters.iter().map(|t| (t.position.x, t.position.y)).collect();
+    let names: Vec<String> = config.transmitters.iter().map(|t| t.name.clone()).collect();
+    let subtitle = result.settings.line();
+    let title = |what: &str, freq_ghz: f64| {
+        format!("{scene_name} | {what} at {freq_ghz:.3} GHz | h = {} m", config.grid.height_m)
+    };
+    let t0 = &config.transmitters[0];
+    let all_title = if names.len() == 1 {
+        title(&t0.name, t0.freq_ghz)
+    } else if config.transmitters.iter().all(|t| t.freq_ghz == t0.freq_ghz) {
+        title(&format!("{} transmitters (sum)", names.len()), t0.freq_ghz)
+    } else {
+        format!("{scene_name} | {} transmitters (sum) | h = {} m", names.len(), config.grid.height_m)
+    };
+    let extras = PlotExtras {
+        title: &all_title,
+        subtitle: &subtitle,
+        footprints: &feet,
+        transmitters: &txs,
+        transmitter_names: &names,
+    };
+    // One colour scale for every map, from the combined one, so the pictures compare.
+    let range = db_range(&result.coverage, &config.colour_range);
+    // The table and the picture at once: each is mostly one thread's formatting or drawing.
+    let (table, picture) = rayon::join(
+        || write_coverage_csv(&csv, config, result),
+        || write_coverage_png(&png, &result.coverage, range, &extras, config.png_width),
+    );
+    table?;
+    picture?;
+    crate::io::npy::write_npy(&npy, &result.path_gain_array())?;
+    let mut pictures = vec![png];
+    if names.len() > 1 {
+        let mut stems = std::collections::BTreeSet::new();
+        for (i, (t, tr)) in config.transmitters.iter().zip(&result.transmitters).enumerate() {
+            let mut stem = crate::io::file_stem(&t.name);
+            if !stems.insert(stem.clone()) {
+                stem = format!("{stem}_{}", i + 1);
+                stems.insert(stem.clone());
+            }
+            let p = out.join(format!("coverage_{stem}.png"));
+            let t_title = title(&t.name, t.freq_ghz);
+            write_coverage_png(
+                &p,
+                &tr.coverage,
+                range,
+                &PlotExtras { title: &t_title, ..extras },
+                config.png_width,
+            )?;
+            pictures.push(p);
+        }
+        let best: Vec<Option<usize>> =
+            best_servers(config, result).into_iter().map(|b| b.map(|b| b.index)).collect();
+        let p = out.join("best_server.png");
+        let b_title = format!(
+            "{scene_name} | best server of {} transmitters | h = {} m",
+            names.len(),
+            config.grid.height_m
+        );
+        write_best_server_png(
+            &p,
+            config.grid,
+            &best,
+            &names,
+            &PlotExtras { title: &b_title, ..extras },
+            config.png_width,
+        )?;
+        pictures.push(p);
+    }
+    let receiver_files = write_receiver_outputs(out, config, result)?;
+    let outputs = [&csv, &npy]
+        .into_iter()
+        .chain(&pictures)
+        .chain(std::iter::once(&json))
+        .chain(&receiver_files)
+        .map(|p| p.display().to_string())
+        .collect();
+    let s = summary(scene_name, config, result, outputs);
+    write_summary_json(&json, &s)?;
+    Ok(s)
 }

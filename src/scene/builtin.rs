@@ -73,6 +73,16 @@ pub const BUILTIN_SCENES: &[BuiltinScene] = &[
             room_file!("bras_cr2", "ATTRIBUTION.md"),
         ],
     },
+    BuiltinScene {
+        name: "street_canyon",
+        description: "a street between two rows of buildings with a 3.5 GHz rooftop transmitter: the radio benchmark",
+        main: "scene.toml",
+        files: &[
+            room_file!("street_canyon", "scene.toml"),
+            room_file!("street_canyon", "street_canyon.obj"),
+            room_file!("street_canyon", "street_canyon.mtl"),
+        ],
+    },
 ];
 
 /// Prefix that marks a built-in scene name in a scene argument.

@@ -1,11 +1,18 @@
-//! The acoustic run's pre-flight: from the user's [`AcousticOptions`] and the scene to the
-//! checked sources, receivers and settings of a [`Plan`], before any ray is traced.
+//! One acoustic job: the pre-flight ([`plan`]: from the user's [`AcousticOptions`] and the
+//! scene to the checked sources, receivers and settings of a [`Plan`], before any ray is
+//! traced), then the run ([`execute`]: simulate and write every file).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::Context as _;
 use glam::Vec3;
 
 use super::options::MAX_ISM_ORDER;
-use super::{AcousticOptions, AcousticSettings, Air, ReceiverSpec, SourceSpec};
+use super::output::{summary_text, write_all};
+use super::{AcousticOptions, AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate_on};
+use crate::dist::Cluster;
+use crate::io::report::Report;
 use crate::scene::{World, place_inside};
 
 /// What the acoustic part will simulate: its sources and receivers (the flags', the scene's,
@@ -103,4 +110,45 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
     crate::acoustic::check_points(world, &sources, &receivers)
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     Ok(Plan { sources, receivers, settings, notes })
+}
+
+/// A finished acoustic job (on rank 0): the result and the files written.
+#[derive(Debug)]
+pub struct Finished {
+    /// What was computed.
+    pub result: AcousticResult,
+    /// Every file written, in order (empty when no directory was given).
+    pub files: Vec<PathBuf>,
+}
+
+/// Runs a checked [`Plan`] on this process's share of `cluster`; on rank 0, writes every
+/// output into `out` (when given) and reports the summary table and the pairs' warnings.
+/// `None` on the other ranks. `started` is when the job began, for acoustic.json's times.
+pub fn execute(
+    world: &World,
+    plan: &Plan,
+    out: Option<&Path>,
+    scene_label: &str,
+    cluster: &Cluster,
+    report: &dyn Report,
+    started: Instant,
+) -> anyhow::Result<Option<Finished>> {
+    let Plan { sources, receivers, settings, .. } = plan;
+    let counter = report.progress(settings.rays * sources.len() as u64, "rays");
+    let result = simulate_on(cluster, world, sources, receivers, settings, &|n| counter.inc(n))
+        .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    drop(counter);
+    // Only rank 0 holds the result and writes.
+    let Some(result) = result else { return Ok(None) };
+    let files = match out {
+        Some(out) => write_all(out, world, plan, &result, scene_label, cluster, started)?,
+        None => Vec::new(),
+    };
+    report.say(summary_text(&result).trim_end());
+    for p in &result.pairs {
+        for w in &p.warnings {
+            report.warning(&format!("{} -> {}: {w}", p.source, p.receiver));
+        }
+    }
+    Ok(Some(Finished { result, files }))
 }

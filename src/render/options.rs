@@ -1,0 +1,141 @@
+//! The render's options as a user gives them: the flags of `propsim render`, the keyword
+//! arguments of the Python module's `render()`, one type with one set of defaults (the scene
+//! file's `[render]` and `[camera]` tables fill what they leave out), and how they become
+//! settings and a camera.
+
+use anyhow::anyhow;
+use glam::Vec3;
+use serde::Deserialize;
+
+use super::film::Display;
+use super::{Camera, IntegratorKind, RenderSettings};
+use crate::scene::World;
+
+/// Image size when neither the scene nor the command line gives one.
+pub const DEFAULT_SIZE: (u32, u32) = (640, 480);
+/// Memory a render holds per pixel, bytes: film and tile results (12 bytes of float RGB each)
+/// and the 8-bit image written from them (16384 x 16384 peaked at 6.4 GB).
+pub const BYTES_PER_PIXEL: u64 = 28;
+
+/// What a user may set for one render; `None` means "the scene's value, else the built-in
+/// default".
+#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct RenderOptions {
+    /// Image width in pixels (default: the scene's, else 640).
+    #[arg(long)]
+    pub width: Option<u32>,
+    /// Image height in pixels (default: the scene's, else 480).
+    #[arg(long)]
+    pub height: Option<u32>,
+    /// Samples per pixel (default: the scene's, else 64).
+    #[arg(long)]
+    pub spp: Option<u32>,
+    /// Maximum bounces; 1 = direct light only (default: the scene's, else 8).
+    #[arg(long = "max-depth")]
+    pub max_depth: Option<u32>,
+    /// raycast, whitted, distributed or path (default: the scene's, else path).
+    #[arg(long)]
+    pub integrator: Option<String>,
+    /// Random seed: the same seed gives the same image for any thread count.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Camera position X,Y,Z (default: the scene's camera, else an automatic view).
+    #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub eye: Option<[f32; 3]>,
+    /// Point looked at, X,Y,Z.
+    #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub target: Option<[f32; 3]>,
+    /// Up direction, X,Y,Z (default 0,0,1).
+    #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub up: Option<[f32; 3]>,
+    /// Vertical field of view, degrees.
+    #[arg(long = "fov-deg")]
+    pub fov_deg: Option<f32>,
+    /// PNG exposure in stops: radiance x 2^EV before the tone map (default: the scene's, else
+    /// 0). EXR output stays linear.
+    #[arg(long = "exposure", value_name = "EV")]
+    pub exposure_ev: Option<f32>,
+    /// PNG tone map: aces (filmic, the default), reinhard (on luminance) or none (clip at 1).
+    #[arg(long = "tone-map", value_name = "aces|reinhard|none")]
+    pub tone_map: Option<String>,
+    /// Largest luminance of each sample's indirect light (path and distributed integrators):
+    /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
+    #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
+    pub clamp_indirect: Option<f32>,
+}
+
+/// The settings the scene suggests, overridden by the flags.
+pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<RenderSettings> {
+    let desc = world.scene.desc.render.clone().unwrap_or_default();
+    let integrator_name = options.integrator.clone().or(desc.integrator).unwrap_or_else(|| "path".into());
+    let integrator: IntegratorKind =
+        integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
+    let d = RenderSettings::default();
+    let tone_map = match options.tone_map.clone().or(desc.tone_map) {
+        Some(name) => name.parse().map_err(|e: String| anyhow!("--tone-map: {e}"))?,
+        None => d.display.tone_map,
+    };
+    let exposure_ev = options.exposure_ev.or(desc.exposure_ev).unwrap_or(d.display.exposure_ev);
+    let display = Display { exposure_ev, tone_map };
+    display.validate().map_err(|e| anyhow!("--exposure: {e}"))?;
+    let s = RenderSettings {
+        width: options.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
+        height: options.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
+        spp: options.spp.or(desc.spp).unwrap_or(d.spp),
+        max_depth: options.max_depth.or(desc.max_depth).unwrap_or(d.max_depth),
+        integrator,
+        seed: options.seed,
+        background: None,
+        display,
+        clamp_indirect: options.clamp_indirect,
+    };
+    s.validate().map_err(|e| anyhow!("{e}"))?;
+    Ok(s)
+}
+
+/// The camera: the scene's `[camera]` or the automatic one ([`super::auto_camera`]:
+/// inside a closed room, else outside the bounds), then the flags.
+pub fn camera(world: &World, options: &RenderOptions, aspect: f32) -> anyhow::Result<Camera> {
+    let (eye, target, up, fov, lens) = match &world.scene.desc.camera {
+        Some(c) => (
+            Vec3::from(c.eye),
+            Vec3::from(c.target),
+            Vec3::from(c.up),
+            c.fov_deg,
+            (c.aperture_radius_m, c.focus_distance_m),
+        ),
+        None => {
+            let up = options.up.map_or(Vec3::Z, Vec3::from);
+            let v = super::auto_camera(world, up, options.fov_deg);
+            (v.eye, v.target, up, v.fov_deg, (0.0, None))
+        }
+    };
+    let eye = options.eye.map_or(eye, Vec3::from);
+    let target = options.target.map_or(target, Vec3::from);
+    let up = options.up.map_or(up, Vec3::from);
+    let fov = options.fov_deg.unwrap_or(fov);
+    let mut cam = Camera::look_at(eye, target, up, fov, aspect).map_err(|e| anyhow!("{e}"))?;
+    cam.set_lens(lens.0, lens.1).map_err(|e| anyhow!("{e}"))?;
+    Ok(cam)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cmd {
+        #[command(flatten)]
+        options: RenderOptions,
+    }
+
+    #[test]
+    fn the_command_line_and_the_library_share_one_set_of_defaults() {
+        let parsed = Cmd::try_parse_from(["render"]).expect("no flags parse");
+        assert_eq!(parsed.options, RenderOptions::default());
+        let from_json: RenderOptions = serde_json::from_str("{}").expect("empty options parse");
+        assert_eq!(from_json, RenderOptions::default());
+    }
+}
