@@ -2,7 +2,7 @@
 //! `cargo run --release --example rf_coverage`.
 
 use propsim::rf::output::{summary, write_coverage_csv};
-use propsim::rf::{RfOptions, RfConfig, simulate};
+use propsim::rf::{RfConfig, RfOptions, simulate};
 use propsim::scene::{LoadOptions, World, load};
 
 fn main() -> anyhow::Result<()> {

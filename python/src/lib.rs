@@ -21,6 +21,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyList, PyString, PyTuple};
 
 use propsim::cli::{self, Cli, Command};
+use propsim::dist::Cluster;
+use propsim::io::report::Collect;
 use propsim::scene::World;
 
 create_exception!(
@@ -243,35 +245,38 @@ fn paths(files: &[PathBuf]) -> Vec<String> {
     files.iter().map(|p| p.display().to_string()).collect()
 }
 
+/// What a job reported (the CLI's `note:` and `warning:` lines), with `first` before them.
+fn reported(report: &Collect, first: Vec<String>) -> (Vec<String>, Vec<String>) {
+    let take = |m: &std::sync::Mutex<Vec<String>>| m.lock().map(|v| v.clone()).unwrap_or_default();
+    let mut warnings = first;
+    warnings.extend(take(&report.warnings));
+    (take(&report.notes), warnings)
+}
+
 /// `propsim render SCENE [options]` in memory: the image as linear radiance.
 #[pyfunction]
 fn render<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyDict>> {
     let call = command(Sim::Render, scene, options)?;
     let Command::Render(args) = call.command else { return Err(error("internal error: not a render")) };
     let writes = call.writes;
-    let (out, info) = detached(py, call.threads, move || {
+    let (image, info) = detached(py, call.threads, move || {
         let output = writes.then_some(args.output.as_path());
         // Checked before the (possibly long) render, as the CLI does.
         if let Some(o) = output {
             propsim::render::film::ImageFormat::from_path(o)?;
             propsim::io::atomic::check_writable(o, false)?;
         }
-        let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
-        let (s, cam) = cli::render::plan(&args, &world)?;
-        if s.integrator != propsim::render::IntegratorKind::Raycast
-            && let Some(why) = propsim::render::unlit_reason(&world)
-        {
-            warnings.push(format!("{}: {why}", args.scene.display()));
-        }
-        let rs = propsim::render::RenderScene::new(&world);
-        let out = propsim::render::render(&rs, &cam, &s, &|_| {}).map_err(|e| anyhow!("{e}"))?;
-        let mut files = Vec::new();
-        if let Some(o) = output {
-            out.film.write_with(o, &s.display)?;
-            files.push(o.to_path_buf());
-        }
+        let (world, warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let label = args.scene.display().to_string();
+        let plan = propsim::render::job::plan(&world, &args.options, &label)?;
+        let report = Collect::default();
+        let out = propsim::render::job::execute(&world, &plan, output, &Cluster::solo(), &report)?
+            .ok_or_else(|| anyhow!("internal error: a single process returned no image"))?;
+        let (_, mut warnings) = reported(&report, warnings);
+        warnings.splice(0..0, plan.warnings.iter().cloned());
+        let (s, cam) = (&plan.settings, &plan.camera);
         let info = serde_json::json!({
-            "scene": args.scene.display().to_string(),
+            "scene": label,
             "settings": {
                 "width": s.width,
                 "height": s.height,
@@ -293,12 +298,12 @@ fn render<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> Py
             "samples": out.samples,
             "rays": out.rays,
             "warnings": warnings,
-            "files": paths(&files),
+            "files": output.map(|o| vec![o.display().to_string()]).unwrap_or_default(),
         });
-        Ok((out, info))
+        Ok((out.film.to_array(), info))
     })?;
     let d = json_dict(py, &info)?;
-    d.set_item("image", out.film.to_array().into_pyarray(py))?;
+    d.set_item("image", image.into_pyarray(py))?;
     Ok(d)
 }
 
@@ -315,13 +320,17 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
         let label = args.scene.display().to_string();
         warnings.extend(sheet_warning(&world, &label));
         let plan = propsim::acoustic::plan(&world, &args.options, &label)?;
-        if writes {
-            propsim::io::atomic::check_writable(&args.out, true)?;
+        let out = writes.then_some(args.out.as_path());
+        if let Some(o) = out {
+            propsim::io::atomic::check_writable(o, true)?;
         }
-        let s = &plan.settings;
-        let result = propsim::acoustic::simulate(&world, &plan.sources, &plan.receivers, s, &|_| {})
-            .map_err(|e| anyhow!("{label}: {e}"))?;
-        let traced_s = started.elapsed().as_secs_f64();
+        let report = Collect::default();
+        let done =
+            propsim::acoustic::execute(&world, &plan, out, &label, &Cluster::solo(), &report, started)?
+                .ok_or_else(|| anyhow!("internal error: a single process returned no result"))?;
+        let (_, warnings) = reported(&report, warnings);
+        let result = done.result;
+        let seed = plan.settings.seed;
         // The impulse responses of the WAV files, with their seeds.
         let irs: Vec<Vec<f32>> = result
             .pairs
@@ -333,26 +342,10 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
                     result.bin_s,
                     result.volume_m3,
                     result.speed_of_sound_m_s,
-                    s.seed ^ (i as u64) << 20,
+                    seed ^ (i as u64) << 20,
                 )
             })
             .collect();
-        for p in &result.pairs {
-            warnings.extend(p.warnings.iter().map(|w| format!("{} -> {}: {w}", p.source, p.receiver)));
-        }
-        let mut files = Vec::new();
-        if writes {
-            files = propsim::acoustic::output::write_all(
-                &args.out,
-                &world,
-                &plan,
-                &result,
-                &label,
-                &propsim::dist::Cluster::solo(),
-                traced_s,
-                started,
-            )?;
-        }
         let mut info = to_json(&result)?;
         let extra = serde_json::json!({
             "scene": label,
@@ -363,7 +356,7 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
             "sample_rate_hz": propsim::acoustic::impulse_response::SAMPLE_RATE_HZ,
             "seconds": started.elapsed().as_secs_f64(),
             "warnings": warnings,
-            "files": paths(&files),
+            "files": paths(&done.files),
         });
         if let (Some(o), serde_json::Value::Object(e)) = (info.as_object_mut(), extra) {
             o.extend(e);
@@ -386,28 +379,21 @@ fn rf<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResu
     let Command::Rf(args) = call.command else { return Err(error("internal error: not rf")) };
     let writes = call.writes;
     let (config, result, info) = detached(py, call.threads, move || {
-        use cli::rf::{MAX_PNG_WIDTH, MIN_PNG_WIDTH};
-        anyhow::ensure!(
-            (MIN_PNG_WIDTH..=MAX_PNG_WIDTH).contains(&args.png_width),
-            "--png-width {}: must be between {MIN_PNG_WIDTH} and {MAX_PNG_WIDTH} pixels",
-            args.png_width
-        );
-        let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let (world, warnings) = load_world(&args.scene, &args.materials, &args.model)?;
         let label = args.scene.display().to_string();
-        let config = propsim::rf::RfConfig::from_scene(&world, &args.overrides())
-            .map_err(|e| anyhow!("{label}: {e}"))?;
-        if let Some(why) = propsim::rf::grid_misses_model(&world, &config) {
-            warnings.push(format!("{label}: {why}"));
+        let plan = propsim::rf::job::plan(&world, &args.options, &label)?;
+        let out = writes.then_some(args.out.as_path());
+        if let Some(o) = out {
+            propsim::io::atomic::check_writable(o, true)?;
         }
-        if writes {
-            propsim::io::atomic::check_writable(&args.out, true)?;
-        }
-        let result = propsim::rf::simulate(&world, &config, &|_| {}).with_context(|| label.clone())?;
-        let summary = if writes {
-            cli::rf::write_outputs(&args.out, &label, &world, &config, &result, args.png_width)?
-        } else {
-            propsim::rf::output::summary(&label, &config, &result, Vec::new())
-        };
+        let report = Collect::default();
+        let done = propsim::rf::job::execute(&world, &plan, out, &label, &Cluster::solo(), &report)?
+            .ok_or_else(|| anyhow!("internal error: a single process returned no result"))?;
+        let (_, mut warnings) = reported(&report, warnings);
+        warnings.splice(0..0, plan.warnings.iter().cloned());
+        let config = plan.config;
+        let result = done.result;
+        let summary = propsim::rf::output::summary(&label, &config, &result, paths(&done.files));
         let g = config.grid;
         let info = serde_json::json!({
             "scene": label,
@@ -424,7 +410,7 @@ fn rf<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResu
             "paths_columns": propsim::rf::output::PATHS_NPY_COLUMNS,
             "seconds": result.seconds,
             "warnings": warnings,
-            "files": summary.outputs,
+            "files": paths(&done.files),
         });
         Ok((config, result, info))
     })?;
@@ -445,19 +431,36 @@ fn rf<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResu
     Ok(d)
 }
 
-/// `propsim run SCENE [options]`: the combined job, writing its files; returns the manifest.
+/// `propsim run SCENE [options]`: the combined job, writing its files; returns the manifest
+/// (with the notes and warnings the CLI would print added as `notes` and `warnings`).
 #[pyfunction]
 fn run<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResult<Bound<'py, PyAny>> {
     let call = command(Sim::Run, scene, options)?;
     let Command::Run(args) = call.command else { return Err(error("internal error: not run")) };
     let manifest = detached(py, call.threads, move || {
-        cli::run::run(&args, &propsim::dist::Cluster::solo())?;
-        let path = args.out.join("manifest.json");
-        let text =
-            std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-        Ok(text)
+        let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let label = args.scene.display().to_string();
+        warnings.extend(sheet_warning(&world, &label));
+        let report = Collect::default();
+        let manifest = propsim::run::run(
+            &world,
+            &args.options,
+            &label,
+            &args.materials,
+            &args.out,
+            &Cluster::solo(),
+            &report,
+        )?
+        .ok_or_else(|| anyhow!("internal error: a single process returned no manifest"))?;
+        let (notes, warnings) = reported(&report, warnings);
+        let mut manifest = manifest;
+        if let Some(m) = manifest.as_object_mut() {
+            m.insert("notes".into(), notes.into());
+            m.insert("warnings".into(), warnings.into());
+        }
+        Ok(manifest)
     })?;
-    py.import("json")?.call_method1("loads", (manifest,))
+    json_to_py(py, &manifest)
 }
 
 /// The propsim library's version (what `propsim --version` prints).
@@ -468,8 +471,6 @@ fn propsim_version() -> String {
 /// The extension module: four functions, the error type and the library's version.
 #[pymodule]
 fn _propsim(m: &Bound<'_, PyModule>) -> PyResult<()> {
-    // The module returns what the CLI prints: no progress bars, no printed lines.
-    cli::set_speaks(false);
     m.add("PropsimError", m.py().get_type::<PropsimError>())?;
     m.add("__version__", propsim_version())?;
     m.add_function(wrap_pyfunction!(render, m)?)?;

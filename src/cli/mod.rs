@@ -13,12 +13,6 @@ pub fn speaks() -> bool {
     SPEAKS.load(Ordering::Relaxed)
 }
 
-/// Sets whether this process prints: the Python module turns it off, because it returns what
-/// the command line would print (and a progress bar has no place in a notebook).
-pub fn set_speaks(on: bool) {
-    SPEAKS.store(on, Ordering::Relaxed);
-}
-
 /// `println!` on the process that speaks for the job, checked ([`crate::io::stdout`]).
 macro_rules! say {
     ($($t:tt)*) => { if $crate::cli::speaks() { $crate::outln!($($t)*) } };
