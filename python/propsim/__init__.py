@@ -117,7 +117,9 @@ def run(scene="builtin:showcase", out="out", **options):
     ``up_axis``, ``scale``, ``threads``.
 
     Returns the manifest (manifest.json) as a dict: parts run or skipped and why, the
-    parameters, timings and every file written.
+    parameters, timings and every file written, plus ``notes`` and ``warnings`` (the lines the
+    command line prints as ``note:`` and ``warning:``; the warnings are also issued as
+    :class:`PropsimWarning`).
     """
     options["out"] = _os.fspath(out)
-    return _propsim.run(_scene(scene), options)
+    return _warn(_propsim.run(_scene(scene), options))
