@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use propsim::cli::bench_trace::{
+use propsim::core::bench::{
     FIGURE_LEGEND, coherent_rays, incoherent_rays, median, peak_rss_mb, terrain, timed_builds, trace_figures,
 };
 

@@ -8,8 +8,18 @@ use propsim::scene::{self, World};
 
 fn main() -> anyhow::Result<()> {
     let world = World::build(scene::load("builtin:shoebox".as_ref(), &Default::default())?);
-    let source = SourceSpec { name: "S".into(), position: [2.0, 3.0, 1.5], power_w: 1.0 };
-    let receiver = ReceiverSpec { name: "R".into(), position: [7.0, 5.0, 1.2], radius_m: None };
+    let source = SourceSpec {
+        name: "S".into(),
+        position: [2.0, 3.0, 1.5],
+        power_w: 1.0,
+        directivity: Default::default(),
+    };
+    let receiver = ReceiverSpec {
+        name: "R".into(),
+        position: [7.0, 5.0, 1.2],
+        radius_m: None,
+        listener: Default::default(),
+    };
     let settings = AcousticSettings { rays: 100_000, ..Default::default() };
     let result = simulate(&world, &[source], &[receiver], &settings, &|_| {}).map_err(anyhow::Error::msg)?;
     let pair = &result.pairs[0];

@@ -5,7 +5,7 @@
 #![deny(unsafe_code)]
 
 pub mod acoustic;
-pub mod cli;
+mod cli;
 pub mod core;
 pub mod dist;
 pub mod io;
@@ -13,3 +13,5 @@ pub mod render;
 pub mod rf;
 pub mod run;
 pub mod scene;
+
+pub use cli::command_line;

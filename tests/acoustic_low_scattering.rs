@@ -52,8 +52,10 @@ fn box_room(dir: &Path, faces: &Faces, s: f64) -> World {
 
 fn run(world: &World, settings: &AcousticSettings, radius_m: Option<f32>) -> AcousticResult {
     let f = |p: [f64; 3]| p.map(|v| v as f32);
-    let sources = [SourceSpec { name: "S".into(), position: f(SOURCE), power_w: 1.0 }];
-    let receivers = [ReceiverSpec { name: "R".into(), position: f(RECEIVER), radius_m }];
+    let sources =
+        [SourceSpec { name: "S".into(), position: f(SOURCE), power_w: 1.0, directivity: Default::default() }];
+    let receivers =
+        [ReceiverSpec { name: "R".into(), position: f(RECEIVER), radius_m, listener: Default::default() }];
     simulate(world, &sources, &receivers, settings, &|_| {}).unwrap()
 }
 

@@ -33,11 +33,11 @@ fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> Wor
 }
 
 fn src(p: [f32; 3]) -> Vec<SourceSpec> {
-    vec![SourceSpec { name: "S".into(), position: p, power_w: 1.0 }]
+    vec![SourceSpec { name: "S".into(), position: p, power_w: 1.0, directivity: Default::default() }]
 }
 
 fn rcv(p: [f32; 3], r: Option<f32>) -> Vec<ReceiverSpec> {
-    vec![ReceiverSpec { name: "R".into(), position: p, radius_m: r }]
+    vec![ReceiverSpec { name: "R".into(), position: p, radius_m: r, listener: Default::default() }]
 }
 
 #[test]
@@ -171,6 +171,8 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         diffuse_rain: None,
         splitting: None,
         rain_in_view: &[],
+        directivity: None,
+        directions: None,
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };
     let spec = Launch {

@@ -121,7 +121,12 @@ fn check(name: &str, c: Case) {
     assert!(code.is_some(), "{shown}: died by a signal ({:?}): {err}", out.status);
     assert!(code != Some(0), "{shown}: should fail; stderr: {err}");
     assert!(code != Some(101) && !err.contains("panicked"), "{shown}: panicked: {err}");
-    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    // A command-line mistake keeps clap's tip and usage lines after its one error line.
+    let clap_help = |l: &str| {
+        let t = l.trim_start();
+        t.starts_with("tip:") || t.starts_with("Usage:") || t.starts_with("For more information, try")
+    };
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty() && !clap_help(l)).collect();
     assert_eq!(lines.len(), 1, "{shown}: one line expected on stderr, got: {err}");
     assert!(lines[0].starts_with("error: "), "{shown}: {}", lines[0]);
     for n in c.needles {

@@ -11,8 +11,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
-use propsim::cli::bench_trace::{read_rays, write_rays};
 use propsim::core::Ray;
+use propsim::core::bench::{read_rays, write_rays};
 use propsim::rf::{RfConfig, RfOptions};
 use propsim::scene::obj::load_obj;
 use propsim::scene::{self, LoadOptions, MaterialLibrary, World};
@@ -260,7 +260,7 @@ fn use_scene(result: Result<scene::Scene, scene::SceneError>) {
     let _ = world.check_acoustic_points();
     let _ = propsim::acoustic::simulate::surface_acoustics(&world);
     let _ = RfConfig::from_scene(&world, &RfOptions::default());
-    let _ = propsim::cli::info::report(&world, &[]);
+    let _ = propsim::scene::report::report(&world, &[]);
 }
 
 /// The mutated OBJ of `seed`: (room, text).

@@ -81,11 +81,17 @@ fn the_acoustic_simulation_counts_the_radio_paths() {
         max_time_s: Some(0.5),
         ..AcousticSettings::default()
     };
-    let sources = [SourceSpec { name: "S".into(), position: SOURCE, power_w: 1.0 }];
+    let sources =
+        [SourceSpec { name: "S".into(), position: SOURCE, power_w: 1.0, directivity: Default::default() }];
     let receivers: Vec<ReceiverSpec> = RECEIVERS
         .iter()
         .enumerate()
-        .map(|(i, &p)| ReceiverSpec { name: format!("R{i}"), position: p, radius_m: Some(0.1) })
+        .map(|(i, &p)| ReceiverSpec {
+            name: format!("R{i}"),
+            position: p,
+            radius_m: Some(0.1),
+            listener: Default::default(),
+        })
         .collect();
     let result = simulate(&world, &sources, &receivers, &settings, &|_| {}).unwrap();
     assert_eq!(result.ism_order, ORDER);

@@ -3,8 +3,9 @@
 //! for arbitrary polyhedra), which finds and validates the paths, the same ones the radio
 //! receivers use.
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
+use super::directivity::Directivity;
 use super::tracer::SurfaceAcoustics;
 use crate::core::Accel;
 use crate::core::specular::{Planes, specular_paths};
@@ -22,6 +23,13 @@ pub struct Arrival {
     /// (Allen & Berkley 1979) with each reflection keeping its specular, unabsorbed part and
     /// the air's energy attenuation `m` (ISO 9613-1) over the whole length.
     pub energy: [f64; BAND_COUNT],
+    /// Unit vector from the source towards the path's first reflection point (the receiver
+    /// for the direct sound): the direction of emission, in which the source's directivity
+    /// weights the path.
+    pub emitted: [f64; 3],
+    /// Unit vector from the receiver towards the path's last reflection point (the source for
+    /// the direct sound): the direction the sound arrives from.
+    pub incoming: [f64; 3],
 }
 
 /// The specular arrivals of up to `order` reflections from `source` to `receiver`, in the
@@ -37,12 +45,32 @@ pub fn specular_arrivals(
     receiver: Vec3,
     order: u32,
 ) -> Vec<Arrival> {
+    specular_arrivals_from(accel, planes, surfaces, air_per_m, (source, &Directivity::OMNI), receiver, order)
+}
+
+/// [`specular_arrivals`] from a directional source: each path's energy is also weighted by
+/// the source's normalised energy weight in its direction of emission ([`Arrival::emitted`];
+/// docs/acoustics.md, Directivity).
+pub fn specular_arrivals_from(
+    accel: &Accel,
+    planes: &Planes,
+    surfaces: &[SurfaceAcoustics],
+    air_per_m: &BandValues,
+    (source, directivity): (Vec3, &Directivity),
+    receiver: Vec3,
+    order: u32,
+) -> Vec<Arrival> {
     specular_paths(accel, planes, source.as_dvec3(), receiver.as_dvec3(), order)
         .into_iter()
         .map(|p| {
             let spreading = 1.0 / (4.0 * std::f64::consts::PI * p.length_m.powi(2));
+            let points = p.points();
+            let unit = |from: DVec3, to: DVec3| (to - from).try_normalize().unwrap_or(DVec3::X);
+            let emitted = unit(points[0], points[1]);
+            let incoming = unit(points[points.len() - 1], points[points.len() - 2]);
+            let weight = directivity.energy_weights(emitted.as_vec3());
             let energy = std::array::from_fn(|b| {
-                let mut e = spreading * (-f64::from(air_per_m[b]) * p.length_m).exp();
+                let mut e = spreading * f64::from(weight[b]) * (-f64::from(air_per_m[b]) * p.length_m).exp();
                 for s in p.surfaces() {
                     e *= surfaces
                         .get(s as usize)
@@ -50,15 +78,19 @@ pub fn specular_arrivals(
                 }
                 e
             });
-            Arrival { length_m: p.length_m, order: p.order(), energy }
+            Arrival {
+                length_m: p.length_m,
+                order: p.order(),
+                energy,
+                emitted: emitted.to_array(),
+                incoming: incoming.to_array(),
+            }
         })
         .collect()
 }
 
 #[cfg(test)]
 mod tests {
-    use glam::DVec3;
-
     use super::*;
     use crate::core::{BuildQuality, TriangleMesh};
 

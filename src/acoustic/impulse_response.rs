@@ -184,14 +184,41 @@ pub fn synthesize(
     speed_m_s: f64,
     seed: u64,
 ) -> Vec<f32> {
+    sum_bands(&synthesize_bands(histogram, bin_s, volume_m3, speed_m_s, seed))
+}
+
+/// The response whose octave-band parts are `bands` ([`synthesize_bands`]): their sum, band
+/// by band in order.
+pub fn sum_bands(bands: &[Vec<f64>]) -> Vec<f32> {
+    let samples = bands.first().map_or(0, Vec::len);
+    let mut out = vec![0.0f64; samples];
+    for band in bands {
+        for (o, v) in out.iter_mut().zip(band) {
+            *o += v;
+        }
+    }
+    out.into_iter().map(|v| v as f32).collect()
+}
+
+/// The octave-band parts of [`synthesize`]'s response, band 0 first, each exactly as long as
+/// the histogram (their sum is the response): the Ambisonic and binaural responses give each
+/// band its own directions (see [`super::spatial`]). All empty for an empty histogram.
+pub fn synthesize_bands(
+    histogram: &[[f64; BAND_COUNT]],
+    bin_s: f64,
+    volume_m3: f64,
+    speed_m_s: f64,
+    seed: u64,
+) -> Vec<Vec<f64>> {
     let fs = f64::from(SAMPLE_RATE_HZ);
     let per_bin = (bin_s * fs).round().max(1.0) as usize;
     let samples = histogram.len() * per_bin;
+    let mut bands = vec![vec![0.0f64; samples]; BAND_COUNT];
     if samples == 0 {
-        return Vec::new();
+        return bands;
     }
     let Some(first) = histogram.iter().position(|bin| bin.iter().any(|&e| e > 0.0)) else {
-        return vec![0.0; samples];
+        return bands;
     };
     let onset = first * per_bin;
     let mut diracs = dirac_sequence(samples, volume_m3, speed_m_s, seed);
@@ -211,7 +238,6 @@ pub fn synthesize(
     let n_fft = samples.next_power_of_two() * 2;
     let filters = band_filters(n_fft);
     let edges = band_edges_hz(fs);
-    let mut out = vec![0.0f64; samples];
     let scale = 1.0 / n_fft as f64;
     // The weighted Dirac sequence of band `b` (zero if the band cannot be represented).
     let weighted = |b: usize, n: usize| -> f64 {
@@ -259,10 +285,10 @@ pub fn synthesize(
             }
             let filtered: Vec<f64> =
                 z[..samples].iter().map(|v| if part == 0 { v.re } else { v.im } * scale).collect();
-            add_band(&mut out, filtered, histogram, band, edges[band], (bin_s, per_bin, onset));
+            add_band(&mut bands[band], filtered, histogram, band, edges[band], (bin_s, per_bin, onset));
         }
     }
-    out.into_iter().map(|v| v as f32).collect()
+    bands
 }
 
 /// Adds band `b` of the response to `out`: `filtered`, the band's filtered Dirac sequence,

@@ -8,6 +8,7 @@ use std::time::Instant;
 use anyhow::Context as _;
 use glam::Vec3;
 
+use super::directivity::{Directivity, scene_directivities};
 use super::options::MAX_ISM_ORDER;
 use super::output::{summary_text, write_all};
 use super::{AcousticOptions, AcousticResult, AcousticSettings, Air, ReceiverSpec, SourceSpec, simulate_on};
@@ -42,7 +43,12 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             .sources
             .iter()
             .enumerate()
-            .map(|(i, p)| SourceSpec { name: format!("S{}", i + 1), position: *p, power_w: 1.0 })
+            .map(|(i, p)| SourceSpec {
+                name: format!("S{}", i + 1),
+                position: *p,
+                power_w: 1.0,
+                directivity: Directivity::OMNI,
+            })
             .collect()
     };
     let mut receivers: Vec<ReceiverSpec> = if options.receivers.is_empty() {
@@ -59,17 +65,30 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
                 name: format!("R{}", i + 1),
                 position: *p,
                 radius_m: options.receiver_radius_m,
+                listener: Default::default(),
             })
             .collect()
     };
     crate::acoustic::check(world).map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    // The scene's directivities were read by scene_points, which falls back to omni: refuse
+    // an invalid one here, naming the file.
+    scene_directivities(world).map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
+    for r in world.scene.desc.acoustic.iter().flat_map(|a| &a.receivers) {
+        crate::acoustic::simulate::scene_listener(r)
+            .map_err(|e| anyhow::anyhow!("{scene_label}: receiver \"{}\": {e}", r.name))?;
+    }
     let mut notes = Vec::new();
     if sources.is_empty() {
         let p = place_inside(world, Vec3::new(0.3, 0.35, 0.45), 0.5).with_context(|| {
             format!("{scene_label}: found no place for a source 0.5 m from every surface")
         })?;
         notes.push(format!("no source given; placed S1 at ({:.2}, {:.2}, {:.2})", p.x, p.y, p.z));
-        sources.push(SourceSpec { name: "S1".into(), position: p.to_array(), power_w: 1.0 });
+        sources.push(SourceSpec {
+            name: "S1".into(),
+            position: p.to_array(),
+            power_w: 1.0,
+            directivity: Directivity::OMNI,
+        });
     }
     if receivers.is_empty() {
         let p = place_inside(world, Vec3::new(0.7, 0.6, 0.4), 0.5).with_context(|| {
@@ -80,7 +99,29 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             name: "R1".into(),
             position: p.to_array(),
             radius_m: options.receiver_radius_m,
+            listener: Default::default(),
         });
+    }
+    match (&options.directivity, options.orientation) {
+        (Some(name), axis) => {
+            let d = Directivity::parse(name, options.directivity_alpha, axis)
+                .map_err(|e| anyhow::anyhow!("--directivity {name}: {e}"))?;
+            for s in &mut sources {
+                s.directivity = d;
+            }
+        }
+        (None, axis) => {
+            anyhow::ensure!(
+                options.directivity_alpha.is_none(),
+                "--directivity-alpha applies only with --directivity mix"
+            );
+            if let Some(axis) = axis {
+                for s in &mut sources {
+                    s.directivity = Directivity::per_band(s.directivity.bands, glam::Vec3::from(axis))
+                        .map_err(|e| anyhow::anyhow!("--orientation: {e}"))?;
+                }
+            }
+        }
     }
     let air = Air {
         temperature_c: options.temperature_c.or(desc.temperature_c.map(f64::from)).unwrap_or(20.0),
@@ -100,6 +141,9 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
         ism_order: options.ism_order,
         roulette_db: options.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
         split_copies: if options.no_splitting { 1 } else { AcousticSettings::default().split_copies },
+        ambisonic_order: options.ambisonic_order,
+        binaural: options.binaural || options.hrtf.is_some(),
+        hrtf: options.hrtf.clone(),
         ..Default::default()
     };
     anyhow::ensure!(
@@ -107,6 +151,10 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
         "--ism-order {}: at most {MAX_ISM_ORDER}",
         options.ism_order
     );
+    // A bad SOFA file is refused before any ray is traced (the table is kept for the writers).
+    if let Some(path) = &options.hrtf {
+        crate::acoustic::hrtf::load_sofa_cached(path).map_err(anyhow::Error::msg)?;
+    }
     crate::acoustic::check_points(world, &sources, &receivers)
         .map_err(|e| anyhow::anyhow!("{scene_label}: {e}"))?;
     Ok(Plan { sources, receivers, settings, notes })

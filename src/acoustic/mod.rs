@@ -3,6 +3,11 @@
 //! responses and ISO 3382-1 parameters.
 
 pub mod air;
+pub mod ambisonics;
+pub mod auralize;
+pub mod directions;
+pub mod directivity;
+pub mod hrtf;
 pub mod image_source;
 pub mod impulse_response;
 pub mod job;
@@ -11,6 +16,7 @@ pub mod options;
 pub mod output;
 pub mod room;
 pub mod simulate;
+pub mod spatial;
 pub mod tracer;
 
 pub use air::Air;

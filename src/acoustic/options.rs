@@ -53,6 +53,30 @@ pub struct AcousticOptions {
     /// Relative humidity, % (default: the scene's, else 50).
     #[arg(long)]
     pub humidity_percent: Option<f64>,
+    /// Directivity of every source, replacing the scene's: omni, cardioid, supercardioid,
+    /// hypercardioid, figure-of-eight, or mix (with --directivity-alpha); normalised to the
+    /// source's power (docs/acoustics.md, Directivity).
+    #[arg(long, value_name = "PATTERN")]
+    pub directivity: Option<String>,
+    /// The omni share a of --directivity mix, a + (1 - a) cos(theta), in [0, 1].
+    #[arg(long, value_name = "A")]
+    pub directivity_alpha: Option<f32>,
+    /// The direction X,Y,Z every source faces (its pattern's axis), replacing the scene's
+    /// (default: the scene's orientation, else +x).
+    #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub orientation: Option<[f32; 3]>,
+    /// Also write Ambisonic impulse responses ambix_SOURCE_RECEIVER.wav of this order (1 to
+    /// 3; ACN, SN3D; 0: none).
+    #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=3))]
+    pub ambisonic_order: u32,
+    /// Also write binaural impulse responses brir_SOURCE_RECEIVER.wav (built-in spherical
+    /// head, Duda and Martens 1998).
+    #[arg(long)]
+    pub binaural: bool,
+    /// Binaural responses from this SOFA file's measured HRIRs instead of the spherical head
+    /// (implies --binaural; per band gains and delays, docs/acoustics.md).
+    #[arg(long, value_name = "FILE.sofa")]
+    pub hrtf: Option<std::path::PathBuf>,
 }
 
 /// Highest image-source order: the number of image sources grows as (planes)^order.
@@ -75,6 +99,12 @@ impl Default for AcousticOptions {
             roulette_db: None,
             temperature_c: None,
             humidity_percent: None,
+            directivity: None,
+            directivity_alpha: None,
+            orientation: None,
+            ambisonic_order: 0,
+            binaural: false,
+            hrtf: None,
         }
     }
 }

@@ -7,8 +7,9 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
-use super::impulse_response::{SAMPLE_RATE_HZ, synthesize};
+use super::impulse_response::{SAMPLE_RATE_HZ, sum_bands, synthesize, synthesize_bands};
 use super::metrics::decay_curve;
+use super::spatial::{Head, PairDirections, ambisonic, binaural};
 use super::{AcousticResult, Plan};
 use crate::dist::Cluster;
 use crate::io::atomic::write_atomically;
@@ -188,16 +189,48 @@ fn write_pair(
     let mut written = Vec::new();
     {
         let stem = format!("{}_{}", file_stem(&p.source), file_stem(&p.receiver));
-        let ir = synthesize(
-            &p.histogram,
-            result.bin_s,
-            volume_m3,
-            result.speed_of_sound_m_s,
-            seed ^ (i as u64) << 20,
-        );
+        let pair_seed = seed ^ (i as u64) << 20;
+        let settings = &result.settings;
+        // The spatial responses share the mono response's band parts (their sum is it).
+        let (ir, bands) = if settings.keeps_directions() {
+            let bands =
+                synthesize_bands(&p.histogram, result.bin_s, volume_m3, result.speed_of_sound_m_s, pair_seed);
+            (sum_bands(&bands), Some(bands))
+        } else {
+            (synthesize(&p.histogram, result.bin_s, volume_m3, result.speed_of_sound_m_s, pair_seed), None)
+        };
         let wav_path = out.join(format!("ir_{stem}.wav"));
         wav::write_f32_mono(&wav_path, &ir, SAMPLE_RATE_HZ)?;
         written.push(wav_path);
+        if let Some(bands) = &bands {
+            let directions = PairDirections {
+                histogram: &p.histogram,
+                bin_s: result.bin_s,
+                directions: &p.directions,
+                direction_bins: settings.direction_bins(),
+                image_sources: &p.image_sources,
+                speed_m_s: result.speed_of_sound_m_s,
+            };
+            let listener = p.listener;
+            if settings.ambisonic_order > 0 {
+                let order = settings.ambisonic_order as usize;
+                let channels = ambisonic(&directions, bands, order, &listener, pair_seed);
+                let path = out.join(format!("ambix_{stem}.wav"));
+                wav::write_f32(&path, &channels, SAMPLE_RATE_HZ)?;
+                written.push(path);
+            }
+            if settings.binaural {
+                let table = match &settings.hrtf {
+                    Some(path) => Some(super::hrtf::load_sofa_cached(path).map_err(anyhow::Error::msg)?),
+                    None => None,
+                };
+                let head = table.as_deref().map_or(Head::Sphere, Head::Measured);
+                let ears = binaural(&directions, bands, &listener, &head, pair_seed);
+                let path = out.join(format!("brir_{stem}.wav"));
+                wav::write_f32(&path, &ears, SAMPLE_RATE_HZ)?;
+                written.push(path);
+            }
+        }
         // Impulse response (level of the squared pressure, 1 ms RMS) and decay curves.
         let per_ms = (SAMPLE_RATE_HZ / 1000) as usize;
         let peak = ir.iter().fold(0.0f32, |m, v| m.max(v.abs())).max(f32::MIN_POSITIVE);
@@ -358,6 +391,8 @@ pub fn write_all(
         "notes": {
             "histogram": "energy fluence per 1 ms bin and octave band, J/m^2 per joule emitted (times source power in W): the direct sound at d metres gives 1/(4 pi d^2)",
             "wav": "48 kHz float pressure impulse response; the sum of squared band-filtered samples over a bin equals the histogram's energy there",
+            "ambix": "48 kHz float Ambisonic impulse response, ACN channel order, SN3D normalisation, in the receiver's head frame (x front, y left, z up); channel 0 (W) is the mono response",
+            "brir": "48 kHz float binaural impulse response (left, right) of a spherical head of radius 8.75 cm (Duda and Martens 1998) in the receiver's head frame",
             "metrics": "ISO 3382-1 from the Schroeder curve, truncated at the noise floor with late-decay compensation (Lundeby et al. 1995) where the decay has one; C50, C80, D50 and Ts counted from the direct-sound arrival d/c, with the whole 1 ms bin holding the direct sound early; G re the same source at 10 m in a free field",
         },
     });

@@ -5,9 +5,12 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::air::Air;
-use super::image_source::specular_arrivals;
+use super::directions::{CELLS, DirectionBins};
+use super::directivity::Directivity;
+use super::image_source::{Arrival, specular_arrivals_from};
 use super::metrics::{BandMetrics, band_metrics_for_source, pair_warnings};
 use super::room::reverberation_times;
+use super::spatial::Listener;
 use super::tracer::{SoundPropagation, Splitting, SurfaceAcoustics, TraceRecord};
 use crate::core::fixed::from_fixed;
 use crate::core::launcher::{Launch, LaunchPattern, launch_share};
@@ -42,6 +45,9 @@ pub struct SourceSpec {
     pub name: String,
     pub position: [f32; 3],
     pub power_w: f64,
+    /// How the source radiates ([`Directivity::OMNI`]: alike in every direction); its power
+    /// stays `power_w` whatever the pattern (docs/acoustics.md, Directivity).
+    pub directivity: Directivity,
 }
 
 /// A sphere receiver; `radius_m: None` takes the default rule of [`default_receiver_radius_m`].
@@ -50,6 +56,10 @@ pub struct ReceiverSpec {
     pub name: String,
     pub position: [f32; 3],
     pub radius_m: Option<f32>,
+    /// The listener's head (where it looks, which way is up) for the Ambisonic and binaural
+    /// responses; the default looks along +x with +z up.
+    #[serde(skip)]
+    pub listener: Listener,
 }
 
 /// Simulation settings.
@@ -83,6 +93,43 @@ pub struct AcousticSettings {
     /// this many copies, each of a share of its energy, where it keeps far more energy than
     /// the room's average decay leaves (1: no splitting).
     pub split_copies: u32,
+    /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
+    /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
+    pub ambisonic_order: u32,
+    /// Whether to make binaural impulse responses (the built-in spherical head, or `hrtf`).
+    pub binaural: bool,
+    /// A SOFA file of measured HRIRs for the binaural responses (`None`: the spherical head).
+    pub hrtf: Option<std::path::PathBuf>,
+}
+
+/// Length of the direction bins, s: the directional energy is kept in bins of about 10 ms
+/// for the first [`DIRECTION_EARLY_S`] and of [`DIRECTION_LATE_BIN_S`] after it
+/// (docs/acoustics.md, Directions of arrival): fine where the early reflections' directions
+/// change, coarse in the near-diffuse tail, so that the record the rays deposit into stays
+/// small (with 10 ms bins throughout, BRAS CR2's 11 s decays made it 4 MB a receiver, and the
+/// deposits' cache misses cost 20 % of the run).
+pub const DIRECTION_BIN_S: f64 = 0.01;
+/// See [`DIRECTION_BIN_S`].
+pub const DIRECTION_EARLY_S: f64 = 0.2;
+/// See [`DIRECTION_BIN_S`].
+pub const DIRECTION_LATE_BIN_S: f64 = 0.1;
+
+impl AcousticSettings {
+    /// Whether the simulation keeps directions of arrival.
+    pub fn keeps_directions(&self) -> bool {
+        self.ambisonic_order > 0 || self.binaural
+    }
+
+    /// The direction bins in histogram bins ([`DIRECTION_BIN_S`]).
+    pub fn direction_bins(&self) -> DirectionBins {
+        let bins = |s: f64| ((s / self.bin_s).round() as usize).max(1);
+        let fine = bins(DIRECTION_BIN_S);
+        DirectionBins {
+            fine,
+            early: (bins(DIRECTION_EARLY_S) / fine).max(1),
+            coarse: bins(DIRECTION_LATE_BIN_S),
+        }
+    }
 }
 
 impl Default for AcousticSettings {
@@ -99,6 +146,9 @@ impl Default for AcousticSettings {
             roulette_db: 30.0,
             diffuse_rain: true,
             split_copies: SPLIT_COPIES,
+            ambisonic_order: 0,
+            binaural: false,
+            hrtf: None,
         }
     }
 }
@@ -120,6 +170,20 @@ pub struct PairResult {
     pub specular_paths: usize,
     /// Deposits at the receiver recorded in the histogram (ray crossings and diffuse rain).
     pub detections: u64,
+    /// The receiver's head (the frame of its Ambisonic and binaural responses).
+    #[serde(skip)]
+    pub listener: Listener,
+    /// Directions of arrival (empty unless [`AcousticSettings::keeps_directions`]): the rays'
+    /// energy fluence per direction bin ([`AcousticSettings::direction_bins`]), direction
+    /// cell ([`super::directions`]) and band, J/m^2, at index `bin * CELLS + cell`, before air
+    /// absorption (it is used for the share of each direction in a bin, which air absorption,
+    /// a function of time alone, does not change).
+    #[serde(skip)]
+    pub directions: Vec<BandEnergies>,
+    /// The image-source arrivals (the direct sound first), energies times the source power,
+    /// J/m^2, each with its exact direction of arrival.
+    #[serde(skip)]
+    pub image_sources: Vec<Arrival>,
     /// What the numbers of this pair cannot be trusted for (near source, few detections, a
     /// decay cut short), one sentence each.
     pub warnings: Vec<String>,
@@ -179,14 +243,30 @@ pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
             name: p.name.clone(),
             position: p.position,
             power_w: f64::from(p.power_w.unwrap_or(1.0)),
+            // An invalid description is refused by [`super::plan`]
+            // ([`super::directivity::scene_directivities`]); here it falls back to omni.
+            directivity: Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
+                .unwrap_or_default(),
         })
         .collect();
     let receivers = desc
         .receivers
         .iter()
-        .map(|p| ReceiverSpec { name: p.name.clone(), position: p.position, radius_m: p.radius_m })
+        .map(|p| ReceiverSpec {
+            name: p.name.clone(),
+            position: p.position,
+            radius_m: p.radius_m,
+            // An invalid head is refused by [`super::plan`]; here it falls back to the default.
+            listener: scene_listener(p).unwrap_or_default(),
+        })
         .collect();
     (sources, receivers)
+}
+
+/// The listener of a scene-file receiver: `orientation` the direction it looks (+x when
+/// absent), `up` the top of its head (+z when absent). The error is one line.
+pub fn scene_listener(p: &crate::scene::desc::PointDesc) -> Result<Listener, String> {
+    Listener::looking(p.orientation.unwrap_or([1.0, 0.0, 0.0]), p.up.unwrap_or([0.0, 0.0, 1.0]))
 }
 
 /// Default receiver radius: about a hundred ray detections per 1 ms bin once the sound field
@@ -316,6 +396,9 @@ pub fn simulate_on(
     if !(settings.bin_s > 0.0 && settings.bin_s <= 0.1) {
         return Err(format!("histogram bin {} s: must be in (0, 0.1]", settings.bin_s));
     }
+    if settings.ambisonic_order > 3 {
+        return Err(format!("Ambisonic order {}: must be 1 to 3 (0: none)", settings.ambisonic_order));
+    }
     if !(20.0..=120.0).contains(&settings.roulette_db) {
         return Err(format!("roulette level {} dB: must be between 20 and 120 dB", settings.roulette_db));
     }
@@ -393,6 +476,8 @@ pub fn simulate_on(
         if !(source.power_w.is_finite() && source.power_w > 0.0) {
             return Err(format!("source \"{}\" power {} W: must be > 0", source.name, source.power_w));
         }
+        source.directivity.validate().map_err(|e| format!("source \"{}\": {e}", source.name))?;
+        let directivity = (!source.directivity.is_omni()).then_some(source.directivity);
         let prop = SoundPropagation {
             surfaces: &surfaces,
             receivers: &spheres,
@@ -405,6 +490,8 @@ pub fn simulate_on(
             diffuse_rain: settings.diffuse_rain.then_some(&world.accel),
             splitting,
             rain_in_view: &rain_in_view,
+            directivity,
+            directions: settings.keeps_directions().then(|| settings.direction_bins()),
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),
@@ -423,7 +510,15 @@ pub fn simulate_on(
                 .iter()
                 .map(|r| {
                     let rcv = Vec3::from(r.position);
-                    specular_arrivals(&world.accel, &planes, &surfaces, &air_per_m, src, rcv, ism_order)
+                    specular_arrivals_from(
+                        &world.accel,
+                        &planes,
+                        &surfaces,
+                        &air_per_m,
+                        (src, &source.directivity),
+                        rcv,
+                        ism_order,
+                    )
                 })
                 .collect()
         } else {
@@ -450,6 +545,17 @@ pub fn simulate_on(
         }
         let mut detections = record.detections.clone();
         drop(record.fixed);
+        // The directions, summed like the histograms over the bins every process shares.
+        let dir_bins = if settings.keeps_directions() { settings.direction_bins().count(bins) } else { 0 };
+        let mut dir_fixed = vec![0u128; receivers.len() * dir_bins * CELLS * BAND_COUNT];
+        for (r, dirs) in record.dir_fixed.iter().enumerate() {
+            for (k, e) in dirs.iter().enumerate().take(dir_bins * CELLS) {
+                let at = (r * dir_bins * CELLS + k) * BAND_COUNT;
+                dir_fixed[at..at + BAND_COUNT].copy_from_slice(e);
+            }
+        }
+        drop(record.dir_fixed);
+        cluster.sum_u128(&mut dir_fixed);
         let mut counts = [record.segments, record.rays_escaped];
         cluster.sum_u64(&mut counts);
         segments += counts[0];
@@ -520,7 +626,19 @@ pub fn simulate_on(
                     }
                 ));
             }
+            let directions: Vec<BandEnergies> = dir_fixed
+                [ri * dir_bins * CELLS * BAND_COUNT..(ri + 1) * dir_bins * CELLS * BAND_COUNT]
+                .chunks_exact(BAND_COUNT)
+                .map(|e| std::array::from_fn(|b| from_fixed(e[b], unit) * source.power_w))
+                .collect();
+            let image_sources = paths
+                .iter()
+                .map(|p| Arrival { energy: p.energy.map(|e| e * source.power_w), ..p.clone() })
+                .collect();
             pairs.push(PairResult {
+                listener: r.listener,
+                directions,
+                image_sources,
                 source: source.name.clone(),
                 receiver: r.name.clone(),
                 distance_m,

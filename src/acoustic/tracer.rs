@@ -4,6 +4,8 @@
 
 use glam::{Vec2, Vec3, Vec4};
 
+use super::directions::{CELLS, DirectionBins, cell_of};
+use super::directivity::Directivity;
 use crate::core::TimeBins;
 use crate::core::accel::Accel;
 use crate::core::fixed::add_fixed;
@@ -76,12 +78,21 @@ pub struct TraceRecord {
     pub rays_escaped: u64,
     /// Straight flights traced (a ray's launch and every reflection start one).
     pub segments: u64,
+    /// Directions of arrival (with [`SoundPropagation::directions`] on): per receiver, the
+    /// energy per direction bin, direction cell ([`super::directions`]) and band, at index
+    /// `direction_bin * CELLS + cell`; the block's f64 sums and the fixed-point total, merged
+    /// like the histograms (so just as independent of threads and processes).
+    /// (The block's sums are f32: half the memory, so the record stays in cache; directions
+    /// are used as shares of a bin's energy, which f32 sums of a block keep to 1e-6.)
+    pub dir_block: Vec<Vec<[f32; BAND_COUNT]>>,
+    pub dir_fixed: Vec<Vec<[u128; BAND_COUNT]>>,
 }
 
 impl TraceRecord {
-    /// Adds `energy` to receiver `receiver`'s bin `bin` of this block.
+    /// Adds `energy` to receiver `receiver`'s bin `bin` of this block, and to its direction
+    /// slot `direction` (`Some(direction_bin * CELLS + cell)`) when directions are kept.
     #[inline]
-    fn deposit(&mut self, receiver: usize, bin: usize, energy: &BandValues) {
+    fn deposit(&mut self, receiver: usize, bin: usize, energy: &BandValues, direction: Option<usize>) {
         let hist = &mut self.block[receiver];
         if hist.len() <= bin {
             hist.resize(bin + 1, [0.0; BAND_COUNT]);
@@ -90,6 +101,15 @@ impl TraceRecord {
             *h += f64::from(*e);
         }
         self.detections[receiver] += 1;
+        if let Some(slot) = direction {
+            let dirs = &mut self.dir_block[receiver];
+            if dirs.len() <= slot {
+                dirs.resize((slot / CELLS + 1) * CELLS, [0.0; BAND_COUNT]);
+            }
+            for (h, e) in dirs[slot].iter_mut().zip(energy) {
+                *h += *e;
+            }
+        }
     }
 
     /// The number of bins any receiver reached.
@@ -127,6 +147,13 @@ pub struct SoundPropagation<'a> {
     /// Per receiver, the triangles wholly in its view ([`crate::core::visibility::triangles_in_full_view`]): rain
     /// from them needs no occlusion ray. Empty (or `None` for a receiver): trace them all.
     pub rain_in_view: &'a [Option<Vec<PartsInView>>],
+    /// The source's directivity: each ray's band energies are weighted by the pattern's
+    /// normalised energy weight in its launch direction (docs/acoustics.md, Directivity).
+    /// `None`: omnidirectional.
+    pub directivity: Option<Directivity>,
+    /// Directions of arrival: `Some(bins)` keeps each receiver's energy per direction cell in
+    /// those time bins ([`TraceRecord::dir_fixed`]); `None` keeps none (no cost).
+    pub directions: Option<DirectionBins>,
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -138,6 +165,8 @@ impl Propagation for SoundPropagation<'_> {
         TraceRecord {
             block: vec![Vec::new(); n],
             fixed: vec![Vec::new(); n],
+            dir_block: vec![Vec::new(); n],
+            dir_fixed: vec![Vec::new(); n],
             detections: vec![0; n],
             ..TraceRecord::default()
         }
@@ -162,6 +191,24 @@ impl Propagation for SoundPropagation<'_> {
             }
             into.detections[r] += other.detections[r];
         }
+        for (r, (block, fixed)) in other.dir_block.iter().zip(&other.dir_fixed).enumerate() {
+            let total = &mut into.dir_fixed[r];
+            if total.len() < block.len().max(fixed.len()) {
+                total.resize(block.len().max(fixed.len()), [0; BAND_COUNT]);
+            }
+            for (t, e) in total.iter_mut().zip(block) {
+                for (slot, v) in t.iter_mut().zip(e) {
+                    if *v != 0.0 {
+                        add_fixed(slot, f64::from(*v), unit);
+                    }
+                }
+            }
+            for (t, e) in total.iter_mut().zip(fixed) {
+                for (slot, v) in t.iter_mut().zip(e) {
+                    *slot = slot.saturating_add(*v);
+                }
+            }
+        }
         for (a, b) in into.escaped.iter_mut().zip(other.escaped) {
             *a = a.saturating_add(b);
         }
@@ -169,9 +216,16 @@ impl Propagation for SoundPropagation<'_> {
         into.segments += other.segments;
     }
 
-    fn emit(&self, _: u64, _: Vec3) -> SoundRay {
+    /// A ray of `ray_energy_j` per band, weighted by the directivity's normalised energy
+    /// weight towards `dir` (the launch directions stay the source's even lattice, so the
+    /// weights sample the pattern deterministically and average to 1 over the rays).
+    fn emit(&self, _: u64, dir: Vec3) -> SoundRay {
+        let energy = match &self.directivity {
+            Some(d) => d.energy_weights(dir).map(|w| w * self.ray_energy_j),
+            None => [self.ray_energy_j; BAND_COUNT],
+        };
         SoundRay {
-            energy: [self.ray_energy_j; BAND_COUNT],
+            energy,
             specular_order: Some(0),
             after_diffuse: false,
             copies_left: self.splitting.map_or(1, |s| s.copies),
@@ -259,7 +313,9 @@ impl Propagation for SoundPropagation<'_> {
             let Some(bin) = self.bins.bin_of_path(f64::from(path_m)) else { continue };
             let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
             let energy = ray_state.energy.map(|e| e * per_volume);
-            acc.deposit(i, bin, &energy);
+            // The sound comes from where the ray came from.
+            let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-ray.dir));
+            acc.deposit(i, bin, &energy, direction);
         }
     }
 
@@ -393,7 +449,9 @@ impl SoundPropagation<'_> {
             for b in 0..BAND_COUNT {
                 energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;
             }
-            acc.deposit(i, bin, &energy);
+            // The rain comes from the hit point.
+            let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-to));
+            acc.deposit(i, bin, &energy, direction);
         }
     }
 }

@@ -8,9 +8,9 @@ use std::time::Instant;
 
 use clap::Args;
 
-use super::bench_trace::{median, peak_rss_mb};
 use crate::acoustic::impulse_response::synthesize;
 use crate::acoustic::{AcousticSettings, scene_points, simulate};
+use crate::core::bench::{median, peak_rss_mb};
 use crate::scene::{self, LoadOptions, World};
 
 #[derive(Args, Debug)]

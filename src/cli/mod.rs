@@ -38,21 +38,6 @@ pub struct ModelArgs {
     pub scale: Option<f32>,
 }
 
-impl ModelArgs {
-    /// These flags as command-line words, for commands that run others (`propsim run`).
-    pub fn words(&self) -> Vec<String> {
-        let mut v = Vec::new();
-        if let Some(up) = self.up_axis {
-            let name = if up == crate::scene::UpAxis::Y { "y" } else { "z" };
-            v.extend(["--up-axis".to_string(), name.to_string()]);
-        }
-        if let Some(s) = self.scale {
-            v.extend(["--scale".to_string(), s.to_string()]);
-        }
-        v
-    }
-}
-
 fn parse_up_axis(s: &str) -> Result<crate::scene::UpAxis, String> {
     s.parse()
 }
@@ -87,6 +72,7 @@ fn load_world(
 }
 
 pub mod acoustic;
+pub mod auralize;
 pub mod bench_acoustic;
 pub mod bench_render;
 pub mod bench_trace;
@@ -95,8 +81,6 @@ pub mod progress;
 pub mod render;
 pub mod rf;
 pub mod run;
-
-use std::path::PathBuf;
 
 use crate::dist::Cluster;
 
@@ -126,6 +110,9 @@ pub enum Command {
     /// Room acoustics: impulse responses (WAV), energy histograms and ISO 3382-1 parameters
     /// for every source-receiver pair, plus Sabine and Eyring estimates.
     Acoustic(acoustic::AcousticArgs),
+    /// Convolve a dry signal with an impulse response (mono, binaural or Ambisonic), or
+    /// write a synthetic dry test signal with --make-dry.
+    Auralize(auralize::AuralizeArgs),
     /// Render an image (PNG or EXR) of a scene with a chosen integrator.
     Render(render::RenderArgs),
     /// Radio coverage map (coverage.csv, coverage.png, coverage.json) and coherent point
@@ -162,6 +149,64 @@ fn allow_negative_numbers_in(cmd: clap::Command) -> clap::Command {
     cmd.mut_args(allow_negative_numbers).mut_subcommands(allow_negative_numbers_in)
 }
 
+/// The `propsim` command: parses the process's arguments, runs the command as this process's
+/// share of the job (one process, or one rank under MPI) and returns the exit status; every
+/// error is one line on standard error.
+pub fn command_line() -> std::process::ExitCode {
+    use std::process::ExitCode;
+    // `propsim ... | head` ends quietly, like other Unix tools, instead of panicking on EPIPE.
+    sigpipe::reset();
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        // Usage errors as clap writes them: the problem, a "did you mean" tip where there is
+        // one, and the usage line; help and version print as usual.
+        Err(e) if e.use_stderr() => {
+            let _ = e.print();
+            return ExitCode::from(2);
+        }
+        Err(e) => e.exit(),
+    };
+    // One process, or this process's place in an MPI job (`--features mpi`).
+    let cluster = match crate::dist::Cluster::from_environment() {
+        Ok(c) => c,
+        Err(e) => {
+            crate::errln!("error: {}", format!("{e:#}").replace('\n', " "));
+            return ExitCode::FAILURE;
+        }
+    };
+    let result = run(cli, &cluster);
+    // Standard output is checked too: a full disk behind `> file` is an error like any other;
+    // a reader that went away (`| head`, with SIGPIPE ignored by the parent) ends us quietly.
+    let result = match (result, crate::io::stdout::finish()) {
+        (Err(e), _) => Err(e),
+        (Ok(()), Err(e)) if e.kind() == std::io::ErrorKind::BrokenPipe => return ExitCode::SUCCESS,
+        (Ok(()), Err(e)) => Err(anyhow::anyhow!("cannot write standard output: {e}")),
+        (Ok(()), Ok(())) => Ok(()),
+    };
+    match result {
+        Ok(()) => {
+            if cluster.is_root() && cluster.size() > 1 {
+                let c = cluster.reduce_cost();
+                crate::errln!(
+                    "mpi: {} processes; rank 0 waited {:.3} s for the others and reduced {:.2} MB in {:.3} s",
+                    cluster.size(),
+                    c.wait_s,
+                    c.bytes as f64 / 1e6,
+                    c.reduce_s
+                );
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            // Every process of a job sees the same inputs and fails alike: rank 0 reports.
+            if cluster.is_root() {
+                crate::errln!("error: {}", format!("{e:#}").replace('\n', " "));
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
 /// Runs the command line as one process of `cluster`; the error, if any, is for `main` to
 /// print on one line (on rank 0).
 pub fn run(cli: Cli, cluster: &Cluster) -> anyhow::Result<()> {
@@ -190,6 +235,7 @@ pub fn dispatch(command: Command, cluster: &Cluster) -> anyhow::Result<()> {
         // Reports and benchmarks are not split: rank 0 does them alone.
         _ if !cluster.is_root() => Ok(()),
         Command::Info(args) => info::run(&args),
+        Command::Auralize(args) => auralize::run(&args),
         Command::Bench(BenchCommand::Trace(args)) => bench_trace::run(&args),
         Command::Bench(BenchCommand::Acoustic(args)) => bench_acoustic::run(&args),
         Command::Bench(BenchCommand::Render(args)) => bench_render::run(&args),
@@ -202,7 +248,5 @@ pub use crate::scene::parse_point;
 /// The scene used when a command is given none.
 pub const DEFAULT_SCENE: &str = "builtin:bras_cr2";
 
-/// Default output directory of every simulator.
-pub fn default_out_dir() -> PathBuf {
-    PathBuf::from("out")
-}
+#[cfg(test)]
+mod tests;

@@ -3,6 +3,7 @@
 //! It knows nothing of light, sound or radio.
 
 pub mod accel;
+pub mod bench;
 pub mod convex;
 pub mod fixed;
 pub mod flat;

@@ -122,6 +122,37 @@ pub struct PointDesc {
     pub radius_m: Option<f32>,
     /// Source sound power, watts.
     pub power_w: Option<f32>,
+    /// Source directivity pattern (acoustic sources; omni when absent); see
+    /// `acoustic::directivity`.
+    pub directivity: Option<PatternName>,
+    /// The omni share `a` of `directivity = "mix"`, `a + (1 - a) cos theta`: one value, or
+    /// eight, one per octave band 63 Hz to 8 kHz.
+    pub directivity_alpha: Option<AlphaDesc>,
+    /// The direction a source faces (its pattern's axis), or a receiver looks (the front of
+    /// its Ambisonic and binaural responses); +x when absent.
+    pub orientation: Option<Point3>,
+    /// The top of a receiver's head (with `orientation`); +z when absent.
+    pub up: Option<Point3>,
+}
+
+/// A source directivity pattern's name in a scene file.
+#[derive(Clone, Copy, Debug, Deserialize, Serialize, PartialEq, Eq)]
+#[serde(rename_all = "kebab-case")]
+pub enum PatternName {
+    Omni,
+    Cardioid,
+    Supercardioid,
+    Hypercardioid,
+    FigureOfEight,
+    Mix,
+}
+
+/// `directivity_alpha`: one value for every octave band, or eight.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged)]
+pub enum AlphaDesc {
+    One(f32),
+    Bands([f32; 8]),
 }
 
 /// Radio settings, transmitters, coverage grid and point receivers.

@@ -9,6 +9,7 @@ pub mod load;
 pub mod materials;
 pub mod obj;
 pub mod placement;
+pub mod report;
 pub mod world;
 
 pub use check::{MeshReport, analyze};

@@ -23,13 +23,23 @@ pub fn propsim(args: &[&str]) -> (bool, String, String) {
     propsim_in(None, args)
 }
 
+/// Whether `line` is part of clap's usage help after its `error:` line (a tip, the usage,
+/// the pointer to --help), which command-line mistakes keep in full.
+fn clap_help_line(line: &str) -> bool {
+    let t = line.trim_start();
+    t.starts_with("tip:") || t.starts_with("Usage:") || t.starts_with("For more information, try")
+}
+
 /// Asserts a clean failure of a finished run: non-zero exit, no panic, and exactly one
-/// non-warning line on stderr, an `error:` line containing every needle. Returns that line.
+/// non-warning line on stderr, an `error:` line containing every needle (a command-line
+/// mistake may add clap's tip and usage lines). Returns that line.
 pub fn check_one_line_error(args: &[&str], ok: bool, err: &str, needles: &[&str]) -> String {
     assert!(!ok, "{args:?} should fail");
     assert!(!err.contains("panicked"), "{args:?} panicked: {err}");
-    let lines: Vec<&str> =
-        err.lines().filter(|l| !l.trim().is_empty() && !l.starts_with("warning:")).collect();
+    let lines: Vec<&str> = err
+        .lines()
+        .filter(|l| !l.trim().is_empty() && !l.starts_with("warning:") && !clap_help_line(l))
+        .collect();
     assert_eq!(lines.len(), 1, "{args:?}: one error line expected, got: {err}");
     assert!(lines[0].starts_with("error:"), "{err}");
     for n in needles {

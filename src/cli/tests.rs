@@ -1,9 +1,9 @@
-//! Command-line parsing: negative numbers reach every number, point and vector flag of every
+//! Command-line parsing (unit tests of the private `cli` module): negative numbers reach every number, point and vector flag of every
 //! command (issue 19), and the flags and positional arguments after them still parse.
 
+use super::{BenchCommand, Cli, Command};
 use clap::error::ErrorKind;
 use clap::{ArgMatches, CommandFactory, Parser};
-use propsim::cli::{BenchCommand, Cli, Command};
 
 /// Every command without subcommands, with the words that reach it.
 fn leaves(cmd: &clap::Command, path: Vec<String>, out: &mut Vec<(Vec<String>, clap::Command)>) {

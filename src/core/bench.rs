@@ -1,0 +1,218 @@
+//! Benchmark workloads of the tracing core: a generated terrain, coherent and incoherent ray
+//! sets, the ray file format shared with other tracers, and the timed queries of `propsim
+//! bench trace` and `cargo bench`.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::launcher::LAUNCH_BLOCK;
+use super::rng::{stream, uniform};
+use super::sampling::uniform_sphere;
+use super::{Accel, BuildQuality, Hit, Ray, TriangleMesh};
+
+/// Peak memory per generated terrain triangle, bytes: mesh, BVH and build scratch (1M
+/// triangles and 3 x 1M rays peaked at 290 MB).
+pub const BYTES_PER_TRIANGLE: u64 = 200;
+/// Memory per generated ray, bytes: the ray and its hit record.
+pub const BYTES_PER_RAY: u64 = 64;
+
+/// Reads a ray file: little-endian f32, 6 per ray. Directions are normalised.
+pub fn read_rays(path: &Path) -> anyhow::Result<Vec<Ray>> {
+    let bytes = std::fs::read(path).map_err(|e| crate::scene::SceneError::io(path, &e))?;
+    anyhow::ensure!(
+        bytes.len() % 24 == 0 && !bytes.is_empty(),
+        "{}: a ray file holds 24 bytes per ray (6 little-endian f32), found {} bytes",
+        path.display(),
+        bytes.len()
+    );
+    let mut rays = Vec::with_capacity(bytes.len() / 24);
+    for (i, chunk) in bytes.chunks_exact(24).enumerate() {
+        let f: Vec<f32> =
+            chunk.chunks_exact(4).map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]])).collect();
+        let (o, d) = (Vec3::new(f[0], f[1], f[2]), Vec3::new(f[3], f[4], f[5]));
+        anyhow::ensure!(
+            o.is_finite() && d.is_finite() && d.length_squared() > 0.0,
+            "{}: ray {i} is not finite or has a zero direction",
+            path.display()
+        );
+        rays.push(Ray::new(o, d.normalize()));
+    }
+    Ok(rays)
+}
+
+/// Writes rays in the format [`read_rays`] reads.
+pub fn write_rays(path: &Path, rays: &[Ray]) -> anyhow::Result<()> {
+    let mut bytes = Vec::with_capacity(rays.len() * 24);
+    for r in rays {
+        for v in r.origin.to_array().into_iter().chain(r.dir.to_array()) {
+            bytes.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    crate::io::atomic::write_bytes(path, &bytes)
+}
+
+/// Terrain height (m) at (x, y): a few octaves of smooth waves over 1 km.
+fn terrain_height(x: f32, y: f32) -> f32 {
+    30.0 * (x * 0.006).sin() * (y * 0.005).cos()
+        + 12.0 * (x * 0.021 + 1.3).sin() * (y * 0.017 + 0.4).sin()
+        + 4.0 * (x * 0.07 + y * 0.05).sin()
+        + 1.5 * (x * 0.23).cos() * (y * 0.19).sin()
+}
+
+/// A square 1 km terrain height field with about `triangles` triangles.
+pub fn terrain(triangles: usize) -> TriangleMesh {
+    let cells = ((triangles as f64 / 2.0).sqrt().round() as usize).max(1);
+    let n = cells + 1;
+    let size = 1000.0;
+    let mut mesh = TriangleMesh::default();
+    let s = mesh.surface_id("terrain");
+    mesh.positions = (0..n * n)
+        .map(|k| {
+            let (i, j) = (k % n, k / n);
+            let (x, y) = (i as f32 / cells as f32 * size - 500.0, j as f32 / cells as f32 * size - 500.0);
+            Vec3::new(x, y, terrain_height(x, y))
+        })
+        .collect();
+    for j in 0..cells {
+        for i in 0..cells {
+            let a = (j * n + i) as u32;
+            let (b, c, d) = (a + 1, a + n as u32 + 1, a + n as u32);
+            mesh.triangles.push([a, b, c]);
+            mesh.triangles.push([a, c, d]);
+        }
+    }
+    mesh.surface_of_triangle = vec![s; mesh.triangles.len()];
+    mesh
+}
+
+/// Primary rays of a pinhole camera looking down at the terrain at 45 degrees, with a
+/// half-width of `half_angle_deg`: coherent. At 35 degrees 27 % of them hit the terrain (the
+/// benchmark's coherent set); at 20 degrees 68 % do (its hit-heavy set).
+pub fn coherent_rays(count: usize, half_angle_deg: f32) -> Vec<Ray> {
+    let side = (count as f64).sqrt().ceil() as usize;
+    let eye = Vec3::new(-700.0, -700.0, 600.0);
+    let forward = (Vec3::new(0.0, 0.0, 0.0) - eye).normalize();
+    let right = forward.cross(Vec3::Z).normalize();
+    let up = right.cross(forward);
+    let half = half_angle_deg.to_radians().tan();
+    (0..count)
+        .map(|k| {
+            let (i, j) = (k % side, k / side);
+            let u = ((i as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            let v = ((j as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            Ray::new(eye, (forward + u * right + v * up).normalize())
+        })
+        .collect()
+}
+
+/// Rays from random points 1-50 m above the terrain in uniformly random directions:
+/// incoherent, like diffuse bounces or an acoustic/radio launcher after a few reflections.
+pub fn incoherent_rays(count: usize, seed: u64) -> Vec<Ray> {
+    (0..count)
+        .map(|k| {
+            let mut r = stream(seed, 0xbe7c, k as u64);
+            let x = uniform(&mut r) * 900.0 - 450.0;
+            let y = uniform(&mut r) * 900.0 - 450.0;
+            let z = terrain_height(x, y) + 1.0 + 49.0 * uniform(&mut r);
+            let d = uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)));
+            Ray::new(Vec3::new(x, y, z), d)
+        })
+        .collect()
+}
+
+/// Median of a list of seconds.
+pub fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        0.0
+    } else if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Peak resident memory of this process in MB (Linux `VmHWM`), if known.
+pub fn peak_rss_mb() -> Option<f64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb / 1024.0)
+}
+
+/// Builds the BVH `count` times (at least once), dropping each before the next so peak memory
+/// holds one; returns the last build and every build time in seconds.
+pub fn timed_builds(mesh: &TriangleMesh, count: usize, quality: BuildQuality) -> (Accel, Vec<f64>) {
+    let mut builds = Vec::new();
+    let mut t = Instant::now();
+    let mut accel = Accel::build(mesh, Vec::new(), quality);
+    builds.push(t.elapsed().as_secs_f64());
+    for _ in 1..count {
+        drop(accel);
+        t = Instant::now();
+        accel = Accel::build(mesh, Vec::new(), quality);
+        builds.push(t.elapsed().as_secs_f64());
+    }
+    (accel, builds)
+}
+
+/// Result of tracing one ray set through the queries the products make, each timed alone.
+pub struct TraceFigures {
+    /// `propsim render`'s rays (camera rays, path bounces): one closest-hit query a ray
+    /// ([`crate::core::MeshBvh::closest_triangle`]), rays spread over the threads.
+    pub render_mrays_s: f64,
+    /// The acoustic and radio launcher's bounces: [`Accel::closest_hits_into`] on blocks of
+    /// [`LAUNCH_BLOCK`] rays (coherent runs in groups, the rest as streams, on large trees).
+    pub launcher_mrays_s: f64,
+    /// Shadow rays of `propsim render` and the acoustic diffuse rain: one
+    /// [`Accel::occluded`] query a ray.
+    pub occlusion_mrays_s: f64,
+    pub hits: usize,
+    pub occluded: usize,
+    /// Sum over rays of (hit triangle index + 1), 0 for a miss, wrapping at 2^64.
+    pub checksum: u64,
+}
+
+/// What [`trace_figures`] prints for each set, in order: which product path each figure is.
+pub const FIGURE_LEGEND: &str = "per set, Mrays/s: render = `propsim render`'s closest hits (single-ray queries); \
+launcher = acoustic/rf launcher bounces (closest_hits_into, 1024-ray blocks); \
+occlusion = render shadow rays and acoustic diffuse rain (single-ray queries)";
+
+/// Traces `rays` `repeat` times through each product path's query, reporting medians.
+pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures {
+    let (mut render_s, mut launcher_s, mut occl_s) = (Vec::new(), Vec::new(), Vec::new());
+    let mut checksum = 0u64;
+    let mut hits = 0;
+    let mut occluded = 0;
+    let mut launched: Vec<Option<Hit>> = vec![None; rays.len()];
+    for _ in 0..repeat.max(1) {
+        let t = Instant::now();
+        let tri: Vec<Option<(u32, f32)>> = rays.par_iter().map(|r| accel.mesh.closest_triangle(r)).collect();
+        render_s.push(t.elapsed().as_secs_f64());
+        checksum = tri.iter().fold(0u64, |acc, h| acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1)));
+        hits = tri.iter().filter(|h| h.is_some()).count();
+        let t = Instant::now();
+        launched
+            .par_chunks_mut(LAUNCH_BLOCK)
+            .zip(rays.par_chunks(LAUNCH_BLOCK))
+            .for_each(|(out, block)| accel.closest_hits_into(block, out));
+        launcher_s.push(t.elapsed().as_secs_f64());
+        let t = Instant::now();
+        let occ: Vec<bool> = rays.par_iter().map(|r| accel.occluded(r)).collect();
+        occl_s.push(t.elapsed().as_secs_f64());
+        occluded = occ.iter().filter(|&&o| o).count();
+    }
+    let n = rays.len() as f64;
+    TraceFigures {
+        render_mrays_s: n / median(render_s) / 1e6,
+        launcher_mrays_s: n / median(launcher_s) / 1e6,
+        occlusion_mrays_s: n / median(occl_s) / 1e6,
+        hits,
+        occluded,
+        checksum,
+    }
+}
