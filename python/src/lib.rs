@@ -23,7 +23,6 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::{PyBool, PyDict, PyList, PyString, PyTuple};
 
-use propsim::cli::{self, Cli, Command};
 use propsim::dist::Cluster;
 use propsim::io::report::Collect;
 use propsim::scene::World;
@@ -35,6 +34,97 @@ create_exception!(
     "A propsim error: bad options, a scene that does not load, a simulation that cannot run. \
      The message is the one line the command line prints."
 );
+
+/// The command line of one call: propsim's CLI (private to the binary) rebuilt around the
+/// library's option types, with the same flags, defaults, checks and clap messages. The
+/// scene is always given (the Python functions hold the CLI's default scenes).
+#[derive(clap::Parser, Debug)]
+#[command(name = "propsim")]
+struct Cli {
+    /// Worker threads (default: all cores).
+    #[arg(long, global = true)]
+    threads: Option<usize>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(clap::Subcommand, Debug)]
+enum Command {
+    Render(RenderArgs),
+    Acoustic(AcousticArgs),
+    Rf(Box<RfArgs>),
+    Run(RunArgs),
+}
+
+/// The model's frame (`--up-axis`, `--scale`), as the CLI parses it.
+#[derive(clap::Args, Debug, Clone, Default)]
+struct ModelArgs {
+    #[arg(long = "up-axis", value_name = "y|z", value_parser = parse_up_axis)]
+    up_axis: Option<propsim::scene::UpAxis>,
+    #[arg(long, value_name = "FACTOR", value_parser = parse_scale)]
+    scale: Option<f32>,
+}
+
+fn parse_up_axis(s: &str) -> Result<propsim::scene::UpAxis, String> {
+    s.parse()
+}
+
+fn parse_scale(s: &str) -> Result<f32, String> {
+    let v: f32 = s.trim().parse().map_err(|_| format!("\"{s}\" is not a number"))?;
+    propsim::scene::load::check_scale(v)
+}
+
+#[derive(clap::Args, Debug)]
+struct RenderArgs {
+    scene: PathBuf,
+    #[arg(short = 'o', long = "output", default_value = "out/render.png")]
+    output: PathBuf,
+    #[command(flatten)]
+    options: propsim::render::RenderOptions,
+    #[arg(long = "materials")]
+    materials: Vec<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+}
+
+#[derive(clap::Args, Debug)]
+struct AcousticArgs {
+    scene: PathBuf,
+    #[command(flatten)]
+    options: propsim::acoustic::AcousticOptions,
+    #[arg(long = "materials")]
+    materials: Vec<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct RfArgs {
+    scene: PathBuf,
+    #[command(flatten)]
+    options: propsim::rf::RfOptions,
+    #[arg(long = "materials")]
+    materials: Vec<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+}
+
+#[derive(clap::Args, Debug)]
+struct RunArgs {
+    scene: PathBuf,
+    #[arg(long, default_value = "out")]
+    out: PathBuf,
+    #[command(flatten)]
+    options: propsim::run::RunOptions,
+    #[arg(long = "materials")]
+    materials: Vec<PathBuf>,
+    #[command(flatten)]
+    model: ModelArgs,
+}
 
 /// Which simulator a call is for: its subcommand, and where its output goes.
 #[derive(Clone, Copy, PartialEq, Eq)]
@@ -212,9 +302,14 @@ fn detached<T: Send>(
 fn load_world(
     scene: &Path,
     materials: &[PathBuf],
-    model: &cli::ModelArgs,
+    model: &ModelArgs,
 ) -> anyhow::Result<(World, Vec<String>)> {
-    let scene = propsim::scene::load(scene, &cli::load_options(materials, model))?;
+    let options = propsim::scene::LoadOptions {
+        materials_files: materials.to_vec(),
+        up_axis: model.up_axis,
+        scale: model.scale,
+    };
+    let scene = propsim::scene::load(scene, &options)?;
     let warnings = scene.warnings.clone();
     Ok((World::build(scene), warnings))
 }
@@ -467,9 +562,9 @@ fn run<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyRes
     json_to_py(py, &manifest)
 }
 
-/// The propsim library's version (what `propsim --version` prints).
+/// The version (propsim's and this module's are released together).
 fn propsim_version() -> String {
-    <Cli as clap::CommandFactory>::command().get_version().unwrap_or_default().to_string()
+    env!("CARGO_PKG_VERSION").to_string()
 }
 
 /// The extension module: four functions, the error type and the library's version.
