@@ -1,6 +1,6 @@
 //! `propsim._propsim`: the Rust side of the Python module. Each function takes a scene and the
-//! Python keyword options, turns them into the command line's words and parses them with the
-//! command line's own parser ([`command`]) into the library's option types (`RenderOptions`,
+//! Python keyword options, turns them into the command line's words and parses them with clap,
+//! as the command line does ([`Cli`], [`command`]), into the library's option types (`RenderOptions`,
 //! `AcousticOptions`, `RfOptions`, `RunOptions`), so that the defaults, the checks and the
 //! error messages are exactly the CLI's (clap's range checks and messages included, which a
 //! serde route would not give); then it runs the library's jobs (`plan`, then `execute`) in
@@ -208,9 +208,8 @@ fn is_many(v: &Bound<'_, PyAny>) -> bool {
 /// `out=DIR` writes where the CLI writes (`DIR/render.png` for the render); without it
 /// nothing is written (but `propsim.run`, whose default is `out="out"`, always writes).
 ///
-/// This is the one place that knows how Python options map to the CLI (with [`command`]):
-/// were `propsim::cli` to become private, a local `clap::Parser` flattening the library's
-/// option types would replace `Cli` here.
+/// This is the one place that knows how Python options map to the CLI (with [`Cli`] and
+/// [`command`]).
 fn words(sim: Sim, scene: &str, options: &Bound<'_, PyDict>) -> PyResult<(Vec<String>, bool)> {
     let mut v = vec!["propsim".to_string(), sim.command().to_string(), scene.to_string()];
     let mut writes = sim == Sim::Run;
