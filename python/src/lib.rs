@@ -56,24 +56,6 @@ enum Command {
     Run(RunArgs),
 }
 
-/// The model's frame (`--up-axis`, `--scale`), as the CLI parses it.
-#[derive(clap::Args, Debug, Clone, Default)]
-struct ModelArgs {
-    #[arg(long = "up-axis", value_name = "y|z", value_parser = parse_up_axis)]
-    up_axis: Option<propsim::scene::UpAxis>,
-    #[arg(long, value_name = "FACTOR", value_parser = parse_scale)]
-    scale: Option<f32>,
-}
-
-fn parse_up_axis(s: &str) -> Result<propsim::scene::UpAxis, String> {
-    s.parse()
-}
-
-fn parse_scale(s: &str) -> Result<f32, String> {
-    let v: f32 = s.trim().parse().map_err(|_| format!("\"{s}\" is not a number"))?;
-    propsim::scene::load::check_scale(v)
-}
-
 #[derive(clap::Args, Debug)]
 struct RenderArgs {
     scene: PathBuf,
@@ -81,10 +63,8 @@ struct RenderArgs {
     output: PathBuf,
     #[command(flatten)]
     options: propsim::render::RenderOptions,
-    #[arg(long = "materials")]
-    materials: Vec<PathBuf>,
     #[command(flatten)]
-    model: ModelArgs,
+    load: propsim::scene::LoadOptions,
 }
 
 #[derive(clap::Args, Debug)]
@@ -92,10 +72,8 @@ struct AcousticArgs {
     scene: PathBuf,
     #[command(flatten)]
     options: propsim::acoustic::AcousticOptions,
-    #[arg(long = "materials")]
-    materials: Vec<PathBuf>,
     #[command(flatten)]
-    model: ModelArgs,
+    load: propsim::scene::LoadOptions,
     #[arg(long, default_value = "out")]
     out: PathBuf,
 }
@@ -105,10 +83,8 @@ struct RfArgs {
     scene: PathBuf,
     #[command(flatten)]
     options: propsim::rf::RfOptions,
-    #[arg(long = "materials")]
-    materials: Vec<PathBuf>,
     #[command(flatten)]
-    model: ModelArgs,
+    load: propsim::scene::LoadOptions,
     #[arg(long, default_value = "out")]
     out: PathBuf,
 }
@@ -120,10 +96,8 @@ struct RunArgs {
     out: PathBuf,
     #[command(flatten)]
     options: propsim::run::RunOptions,
-    #[arg(long = "materials")]
-    materials: Vec<PathBuf>,
     #[command(flatten)]
-    model: ModelArgs,
+    load: propsim::scene::LoadOptions,
 }
 
 /// Which simulator a call is for: its subcommand, and where its output goes.
@@ -298,29 +272,10 @@ fn detached<T: Send>(
 
 /// Loads a scene as the CLI does (extra materials, the model's frame) and builds its world;
 /// the scene's warnings are returned instead of printed.
-fn load_world(
-    scene: &Path,
-    materials: &[PathBuf],
-    model: &ModelArgs,
-) -> anyhow::Result<(World, Vec<String>)> {
-    let options = propsim::scene::LoadOptions {
-        materials_files: materials.to_vec(),
-        up_axis: model.up_axis,
-        scale: model.scale,
-    };
-    let scene = propsim::scene::load(scene, &options)?;
+fn load_world(scene: &Path, options: &propsim::scene::LoadOptions) -> anyhow::Result<(World, Vec<String>)> {
+    let scene = propsim::scene::load(scene, options)?;
     let warnings = scene.warnings.clone();
     Ok((World::build(scene), warnings))
-}
-
-/// The warning the CLI prints for a mesh with internal sheets, if it has them.
-fn sheet_warning(world: &World, scene_label: &str) -> Option<String> {
-    let n = world.report.over_shared_edges;
-    (n > 0).then(|| {
-        format!(
-            "{scene_label}: {n} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface"
-        )
-    })
 }
 
 /// A JSON value as Python objects (dicts, lists, floats; `null` as `None`).
@@ -364,7 +319,7 @@ fn render<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> Py
             propsim::render::film::ImageFormat::from_path(o)?;
             propsim::io::atomic::check_writable(o, false)?;
         }
-        let (world, warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let (world, warnings) = load_world(&args.scene, &args.load)?;
         let label = args.scene.display().to_string();
         let plan = propsim::render::job::plan(&world, &args.options, &label)?;
         let report = Collect::default();
@@ -414,9 +369,9 @@ fn acoustic<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> 
     let writes = call.writes;
     let (result, irs, info) = detached(py, call.threads, move || {
         let started = Instant::now();
-        let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let (world, mut warnings) = load_world(&args.scene, &args.load)?;
         let label = args.scene.display().to_string();
-        warnings.extend(sheet_warning(&world, &label));
+        warnings.extend(world.sheet_warning(&label));
         let plan = propsim::acoustic::plan(&world, &args.options, &label)?;
         let out = writes.then_some(args.out.as_path());
         if let Some(o) = out {
@@ -477,7 +432,7 @@ fn rf<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyResu
     let Command::Rf(args) = call.command else { return Err(error("internal error: not rf")) };
     let writes = call.writes;
     let (config, result, info) = detached(py, call.threads, move || {
-        let (world, warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let (world, warnings) = load_world(&args.scene, &args.load)?;
         let label = args.scene.display().to_string();
         let plan = propsim::rf::job::plan(&world, &args.options, &label)?;
         let out = writes.then_some(args.out.as_path());
@@ -536,15 +491,15 @@ fn run<'py>(py: Python<'py>, scene: &str, options: &Bound<'py, PyDict>) -> PyRes
     let call = command(Sim::Run, scene, options)?;
     let Command::Run(args) = call.command else { return Err(error("internal error: not run")) };
     let manifest = detached(py, call.threads, move || {
-        let (world, mut warnings) = load_world(&args.scene, &args.materials, &args.model)?;
+        let (world, mut warnings) = load_world(&args.scene, &args.load)?;
         let label = args.scene.display().to_string();
-        warnings.extend(sheet_warning(&world, &label));
+        warnings.extend(world.sheet_warning(&label));
         let report = Collect::default();
         let manifest = propsim::run::run(
             &world,
             &args.options,
             &label,
-            &args.materials,
+            &args.load.materials_files,
             &args.out,
             &Cluster::solo(),
             &report,

@@ -16,11 +16,8 @@ pub struct AcousticArgs {
     pub scene: PathBuf,
     #[command(flatten)]
     pub options: AcousticOptions,
-    /// Extra materials file(s).
-    #[arg(long = "materials")]
-    pub materials: Vec<PathBuf>,
     #[command(flatten)]
-    pub model: super::ModelArgs,
+    pub load: crate::scene::LoadOptions,
     /// Output directory.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -28,7 +25,7 @@ pub struct AcousticArgs {
 
 pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
     let started = Instant::now();
-    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
+    let world = super::load_world(&args.scene, &args.load)?;
     let scene_label = args.scene.display().to_string();
     warn_internal_sheets(&world, &scene_label);
     let plan = crate::acoustic::plan(&world, &args.options, &scene_label)?;
@@ -56,10 +53,7 @@ pub fn run(args: &AcousticArgs, cluster: &Cluster) -> anyhow::Result<()> {
 
 /// Warns when edges are shared by more than two triangles (rays cross such a sheet).
 pub fn warn_internal_sheets(world: &World, scene_label: &str) {
-    if world.report.over_shared_edges > 0 {
-        tell!(
-            "warning: {scene_label}: {} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface",
-            world.report.over_shared_edges
-        );
+    if let Some(w) = world.sheet_warning(scene_label) {
+        tell!("warning: {w}");
     }
 }

@@ -12,11 +12,8 @@ pub struct InfoArgs {
     /// Scene file (.toml), bare OBJ, or builtin:NAME.
     #[arg(default_value = super::DEFAULT_SCENE)]
     pub scene: PathBuf,
-    /// Extra materials file(s).
-    #[arg(long = "materials")]
-    pub materials: Vec<PathBuf>,
     #[command(flatten)]
-    pub model: super::ModelArgs,
+    pub load: crate::scene::LoadOptions,
     /// Extra points to test for inside/outside, as X,Y,Z.
     #[arg(long = "point", value_parser = super::parse_point, allow_hyphen_values = true)]
     pub points: Vec<[f32; 3]>,
@@ -26,8 +23,7 @@ pub struct InfoArgs {
 }
 
 pub fn run(args: &InfoArgs) -> anyhow::Result<()> {
-    let options = super::load_options(&args.materials, &args.model);
-    let scene = scene::load(&args.scene, &options)?;
+    let scene = scene::load(&args.scene, &args.load)?;
     for w in &scene.warnings {
         tell!("warning: {w}");
     }

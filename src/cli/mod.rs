@@ -23,48 +23,13 @@ macro_rules! tell {
     ($($t:tt)*) => { if $crate::cli::speaks() { $crate::errln!($($t)*) } };
 }
 
-/// How to read the model's coordinates: the flags every command that loads a scene takes.
-/// Positions given on the command line or in the scene file stay in propsim's Z-up metre
-/// frame; these flags only move the OBJ into it.
-#[derive(clap::Args, Debug, Clone, Default)]
-pub struct ModelArgs {
-    /// The OBJ's up axis: z (propsim's) or y (Blender's OBJ export default), rotated
-    /// (x, y, z) -> (x, -z, y) at load time (default: the scene's up_axis, else z).
-    #[arg(long = "up-axis", value_name = "y|z", value_parser = parse_up_axis)]
-    pub up_axis: Option<crate::scene::UpAxis>,
-    /// Factor on the OBJ's coordinates to make metres: 0.01 for centimetres, 0.0254 for
-    /// inches (default: the scene's scale, else 1).
-    #[arg(long, value_name = "FACTOR", value_parser = parse_scale)]
-    pub scale: Option<f32>,
-}
-
-fn parse_up_axis(s: &str) -> Result<crate::scene::UpAxis, String> {
-    s.parse()
-}
-
-fn parse_scale(s: &str) -> Result<f32, String> {
-    let v: f32 = s.trim().parse().map_err(|_| format!("\"{s}\" is not a number"))?;
-    crate::scene::load::check_scale(v)
-}
-
-/// The load options of the command line: extra materials files and the model's frame.
-pub fn load_options(materials: &[std::path::PathBuf], model: &ModelArgs) -> crate::scene::LoadOptions {
-    crate::scene::LoadOptions {
-        materials_files: materials.to_vec(),
-        up_axis: model.up_axis,
-        scale: model.scale,
-    }
-}
-
 /// Loads a scene with extra materials files, prints its warnings (root only) and builds its
 /// world: the first step of every simulating command.
 fn load_world(
     scene_path: &std::path::Path,
-    materials: &[std::path::PathBuf],
-    model: &ModelArgs,
+    options: &crate::scene::LoadOptions,
 ) -> anyhow::Result<crate::scene::World> {
-    let options = load_options(materials, model);
-    let scene = crate::scene::load(scene_path, &options)?;
+    let scene = crate::scene::load(scene_path, options)?;
     for w in &scene.warnings {
         tell!("warning: {w}");
     }

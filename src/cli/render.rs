@@ -23,11 +23,8 @@ pub struct RenderArgs {
     pub output: PathBuf,
     #[command(flatten)]
     pub options: RenderOptions,
-    /// Extra materials file(s).
-    #[arg(long = "materials")]
-    pub materials: Vec<PathBuf>,
     #[command(flatten)]
-    pub model: super::ModelArgs,
+    pub load: crate::scene::LoadOptions,
 }
 
 /// The render's pre-flight ([`crate::render::job::plan`]), its warnings printed.
@@ -45,7 +42,7 @@ pub fn run(args: &RenderArgs, cluster: &Cluster) -> anyhow::Result<()> {
     if cluster.is_root() {
         crate::io::atomic::check_writable(&args.output, false)?;
     }
-    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
+    let world = super::load_world(&args.scene, &args.load)?;
     let plan = plan(args, &world)?;
     crate::render::job::execute(&world, &plan, Some(&args.output), cluster, &super::progress::Terminal)?;
     Ok(())

@@ -15,11 +15,8 @@ pub struct RfArgs {
     pub scene: PathBuf,
     #[command(flatten)]
     pub options: RfOptions,
-    /// Extra materials file(s).
-    #[arg(long = "materials")]
-    pub materials: Vec<PathBuf>,
     #[command(flatten)]
-    pub model: super::ModelArgs,
+    pub load: crate::scene::LoadOptions,
     /// Output directory.
     #[arg(long, default_value = "out")]
     pub out: PathBuf,
@@ -27,7 +24,7 @@ pub struct RfArgs {
 
 /// Runs `propsim rf`: simulate, then write coverage.csv, coverage.png and coverage.json.
 pub fn run(args: &RfArgs, cluster: &Cluster) -> anyhow::Result<()> {
-    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
+    let world = super::load_world(&args.scene, &args.load)?;
     let scene_name = args.scene.display().to_string();
     let plan = crate::rf::job::plan(&world, &args.options, &scene_name)?;
     for w in &plan.warnings {
@@ -111,7 +108,10 @@ pub fn bench(args: &BenchRfArgs) -> anyhow::Result<()> {
         "--repeat {}: must be between 1 and 1000",
         args.repeat
     );
-    let world = super::load_world(&args.scene, &args.materials, &super::ModelArgs::default())?;
+    let world = super::load_world(
+        &args.scene,
+        &crate::scene::LoadOptions { materials_files: args.materials.clone(), ..Default::default() },
+    )?;
     let name = args.scene.display().to_string();
     let overrides = RfOptions {
         rays: Some(args.rays),

@@ -18,23 +18,20 @@ pub struct RunArgs {
     pub out: PathBuf,
     #[command(flatten)]
     pub options: RunOptions,
-    /// Extra materials file(s).
-    #[arg(long = "materials")]
-    pub materials: Vec<PathBuf>,
     #[command(flatten)]
-    pub model: super::ModelArgs,
+    pub load: crate::scene::LoadOptions,
 }
 
 pub fn run(args: &RunArgs, cluster: &Cluster) -> anyhow::Result<()> {
     // Load once up front: a bad scene fails before any work, with the usual one-line error.
-    let world = super::load_world(&args.scene, &args.materials, &args.model)?;
+    let world = super::load_world(&args.scene, &args.load)?;
     let scene_label = args.scene.display().to_string();
     super::acoustic::warn_internal_sheets(&world, &scene_label);
     crate::run::run(
         &world,
         &args.options,
         &scene_label,
-        &args.materials,
+        &args.load.materials_files,
         &args.out,
         cluster,
         &super::progress::Terminal,

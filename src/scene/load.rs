@@ -45,15 +45,34 @@ pub struct Scene {
     pub warnings: Vec<String>,
 }
 
-/// Options that the command line adds to a scene.
-#[derive(Clone, Debug, Default)]
+/// What a user adds to a scene as it loads: extra materials files and how to read the
+/// model's coordinates. The flags of every command that loads a scene, and the Python
+/// module's keyword arguments. Positions given by the user or the scene file stay in
+/// propsim's Z-up metre frame; `up_axis` and `scale` only move the OBJ into it.
+#[derive(clap::Args, Clone, Debug, Default, PartialEq)]
 pub struct LoadOptions {
-    /// Extra materials files (`--materials`), applied after the scene's own files.
+    /// Extra materials file(s), applied after the scene's own files.
+    #[arg(long = "materials", value_name = "FILE")]
     pub materials_files: Vec<PathBuf>,
-    /// The OBJ's up axis (`--up-axis`); overrides the scene's `up_axis`.
+    /// The OBJ's up axis: z (propsim's) or y (Blender's OBJ export default), rotated
+    /// (x, y, z) -> (x, -z, y) at load time (default: the scene's up_axis, else z).
+    #[arg(long = "up-axis", value_name = "y|z", value_parser = parse_up_axis)]
     pub up_axis: Option<UpAxis>,
-    /// Factor on the OBJ's coordinates (`--scale`); overrides the scene's `scale`.
+    /// Factor on the OBJ's coordinates to make metres: 0.01 for centimetres, 0.0254 for
+    /// inches (default: the scene's scale, else 1).
+    #[arg(long, value_name = "FACTOR", value_parser = parse_scale)]
     pub scale: Option<f32>,
+}
+
+/// `--up-axis`'s value.
+fn parse_up_axis(s: &str) -> Result<UpAxis, String> {
+    s.parse()
+}
+
+/// `--scale`'s value: a finite positive number.
+fn parse_scale(s: &str) -> Result<f32, String> {
+    let v: f32 = s.trim().parse().map_err(|_| format!("\"{s}\" is not a number"))?;
+    check_scale(v)
 }
 
 /// Which axis of an OBJ points up. propsim is Z-up; Blender's OBJ exporter (and many other

@@ -56,6 +56,17 @@ pub struct World {
 }
 
 impl World {
+    /// The warning for a mesh whose edges are shared by more than two triangles (an internal
+    /// sheet, which rays cross as a surface), naming the scene `scene_label`; `None` if none is.
+    pub fn sheet_warning(&self, scene_label: &str) -> Option<String> {
+        let n = self.report.over_shared_edges;
+        (n > 0).then(|| {
+            format!(
+                "{scene_label}: {n} edges are shared by more than two triangles (an internal sheet); rays cross it as a surface"
+            )
+        })
+    }
+
     /// Builds the acceleration structure and the mesh report of `scene`.
     pub fn build(scene: Scene) -> Self {
         let accel = Accel::build(&scene.mesh, scene.spheres.clone(), BuildQuality::default());
