@@ -233,11 +233,36 @@ fn words(sim: Sim, scene: &str, options: &Bound<'_, PyDict>) -> PyResult<(Vec<St
 fn command(sim: Sim, scene: &str, options: &Bound<'_, PyDict>) -> PyResult<Call> {
     let (v, writes) = words(sim, scene, options)?;
     let cli = Cli::try_parse_from(&v).map_err(|e| {
+        if let Some(message) = unknown_option(&e) {
+            return error(message);
+        }
         let text = e.render().to_string();
         let first = text.lines().map(str::trim).find(|l| !l.is_empty()).unwrap_or("invalid arguments");
         error(first.strip_prefix("error:").unwrap_or(first).trim())
     })?;
     Ok(Call { command: cli.command, threads: cli.threads, writes })
+}
+
+/// An unknown keyword named as Python spells it, with clap's nearest option as a suggestion:
+/// `unknown option 'rayz' (--rayz); did you mean 'rays'?`.
+fn unknown_option(e: &clap::Error) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue, ErrorKind};
+    if e.kind() != ErrorKind::UnknownArgument {
+        return None;
+    }
+    let text = |v: &ContextValue| match v {
+        ContextValue::String(s) => Some(s.clone()),
+        ContextValue::Strings(v) => v.first().cloned(),
+        _ => None,
+    };
+    let flag = text(e.get(ContextKind::InvalidArg)?)?;
+    let flag = flag.split('=').next().unwrap_or(&flag).to_string();
+    let keyword = |f: &str| f.trim_start_matches('-').replace('-', "_");
+    let mut m = format!("unknown option '{}' ({flag})", keyword(&flag));
+    if let Some(s) = e.get(ContextKind::SuggestedArg).and_then(text) {
+        m.push_str(&format!("; did you mean '{}'?", keyword(&s)));
+    }
+    Some(m)
 }
 
 /// Runs `f` without the GIL on `threads` worker threads (default: rayon's global pool, all

@@ -185,9 +185,10 @@ def test_a_missing_scene_names_the_file(tmp_path):
 
 
 def test_unknown_options_and_bad_values_are_the_cli_errors():
-    with pytest.raises(propsim.PropsimError, match="--rayz") as e:
+    with pytest.raises(propsim.PropsimError, match="unknown option 'rayz'") as e:
         propsim.acoustic(rayz=10)
     assert "\n" not in str(e.value)
+    assert "did you mean 'rays'?" in str(e.value)
     with pytest.raises(propsim.PropsimError, match="invalid value 'many' for '--rays"):
         propsim.acoustic(rays="many")
     with pytest.raises(propsim.PropsimError, match="--ism-order 7: at most 6"):
