@@ -292,12 +292,11 @@ pub fn run(
     report: &dyn Report,
 ) -> anyhow::Result<Option<serde_json::Value>> {
     let started = Instant::now();
-    let args = options;
     let desc = world.scene.desc.clone();
     if cluster.is_root() {
         crate::io::atomic::check_writable(out, true)?;
     }
-    let selected = |p: Part| args.only.is_empty() || args.only.contains(&p);
+    let selected = |p: Part| options.only.is_empty() || options.only.contains(&p);
     let mut outcomes = [Outcome::NotSelected, Outcome::NotSelected, Outcome::NotSelected];
 
     // Pre-flight of every selected part, before any work. The render needs only the mesh:
@@ -305,15 +304,15 @@ pub fn run(
     let render_png = out.join("render.png");
     let render_plan = if selected(Part::Render) {
         let (qw, qh) = quick_size(world);
-        let quick = |v: u32| args.quick.then_some(v);
-        let options = crate::render::RenderOptions {
-            width: args.width.or(quick(qw)),
-            height: args.height.or(quick(qh)),
-            spp: args.spp.or(quick(QUICK_SPP)),
-            seed: args.seed,
+        let quick = |v: u32| options.quick.then_some(v);
+        let render_options = crate::render::RenderOptions {
+            width: options.width.or(quick(qw)),
+            height: options.height.or(quick(qh)),
+            spp: options.spp.or(quick(QUICK_SPP)),
+            seed: options.seed,
             ..Default::default()
         };
-        let plan = crate::render::job::plan(world, &options, scene_label)?;
+        let plan = crate::render::job::plan(world, &render_options, scene_label)?;
         for w in &plan.warnings {
             report.warning(w);
         }
@@ -323,13 +322,13 @@ pub fn run(
     };
     let acoustic_plan = if selected(Part::Acoustic) {
         let d = crate::acoustic::AcousticOptions::default();
-        let options = crate::acoustic::AcousticOptions {
-            rays: args.rays.or(args.quick.then_some(QUICK_ACOUSTIC_RAYS)),
-            ism_order: if args.quick { QUICK_ISM_ORDER } else { d.ism_order },
-            seed: args.seed,
+        let acoustic_options = crate::acoustic::AcousticOptions {
+            rays: options.rays.or(options.quick.then_some(QUICK_ACOUSTIC_RAYS)),
+            ism_order: if options.quick { QUICK_ISM_ORDER } else { d.ism_order },
+            seed: options.seed,
             ..d
         };
-        match crate::acoustic::plan(world, &options, scene_label) {
+        match crate::acoustic::plan(world, &acoustic_options, scene_label) {
             Ok(p) => {
                 for n in &p.notes {
                     report.note(&format!("acoustic part: {n}"));
@@ -346,14 +345,14 @@ pub fn run(
         None
     };
     let rf_plan = if selected(Part::Rf) {
-        let options = crate::rf::RfOptions {
-            rays: args.rf_rays.or(args.quick.then_some(QUICK_RF_RAYS)),
-            tx: args.tx,
-            extrapolate: args.extrapolate,
-            seed: Some(args.seed),
+        let rf_options = crate::rf::RfOptions {
+            rays: options.rf_rays.or(options.quick.then_some(QUICK_RF_RAYS)),
+            tx: options.tx,
+            extrapolate: options.extrapolate,
+            seed: Some(options.seed),
             ..Default::default()
         };
-        match crate::rf::job::plan(world, &options, scene_label) {
+        match crate::rf::job::plan(world, &rf_options, scene_label) {
             Ok(p) => {
                 for w in &p.warnings {
                     report.warning(w);
@@ -485,15 +484,15 @@ pub fn run(
     let manifest = serde_json::json!({
         "propsim_version": env!("CARGO_PKG_VERSION"),
         "scene": scene_label,
-        "seed": args.seed,
+        "seed": options.seed,
         "materials_files": materials_files,
         "threads": rayon::current_num_threads(),
         "processes": cluster.size(),
         "parts": parts,
         "parameters": {
-            "quick": args.quick,
-            "tx": args.tx,
-            "extrapolate": args.extrapolate,
+            "quick": options.quick,
+            "tx": options.tx,
+            "extrapolate": options.extrapolate,
             "camera": desc.camera,
             "render": render_plan.as_ref().map(|p| &p.settings).map(|s| serde_json::json!({
                 "width": s.width, "height": s.height, "spp": s.spp, "max_depth": s.max_depth,
