@@ -1,36 +1,12 @@
 //! Room-acoustics physics against closed-form answers.
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use std::path::Path;
+
+use common::{box_obj, box_room};
 use propsim::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
 use propsim::scene::{self, LoadOptions, World};
-
-/// The OBJ text of a closed box [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
-fn box_obj([x, y, z]: [f32; 3]) -> String {
-    format!(
-        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
-         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
-    )
-}
-
-/// A closed box room [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
-fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> World {
-    let obj = box_obj(size);
-    let obj_path = dir.join("room.obj");
-    std::fs::write(&obj_path, obj).unwrap();
-    let mats = dir.join("mats.toml");
-    std::fs::write(
-        &mats,
-        format!("[materials.test_wall]\nabsorption = {absorption}\nscattering = {scattering}\n"),
-    )
-    .unwrap();
-    let s = scene::load(
-        &obj_path,
-        &LoadOptions { materials_files: vec![PathBuf::from(&mats)], ..Default::default() },
-    )
-    .unwrap();
-    World::build(s)
-}
 
 fn src(p: [f32; 3]) -> Vec<SourceSpec> {
     vec![SourceSpec { name: "S".into(), position: p, power_w: 1.0, directivity: Default::default() }]

@@ -1,35 +1,14 @@
 //! Directions of arrival and the spatial responses from a whole simulation
 //! (docs/acoustics.md, Directions of arrival; Ambisonic and binaural responses).
 
-use std::path::{Path, PathBuf};
+mod common;
 
+use common::box_room;
 use propsim::acoustic::ambisonics::steer_peak;
 use propsim::acoustic::directions::CELLS;
 use propsim::acoustic::impulse_response::synthesize_bands;
 use propsim::acoustic::spatial::{Listener, PairDirections, ambisonic};
 use propsim::acoustic::{AcousticSettings, ReceiverSpec, SourceSpec, simulate};
-use propsim::scene::{self, LoadOptions, World};
-
-fn box_room(dir: &Path, [x, y, z]: [f32; 3], absorption: f32, scattering: f32) -> World {
-    let obj = format!(
-        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
-         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
-    );
-    let obj_path = dir.join("room.obj");
-    std::fs::write(&obj_path, obj).unwrap();
-    let mats = dir.join("mats.toml");
-    std::fs::write(
-        &mats,
-        format!("[materials.test_wall]\nabsorption = {absorption}\nscattering = {scattering}\n"),
-    )
-    .unwrap();
-    let s = scene::load(
-        &obj_path,
-        &LoadOptions { materials_files: vec![PathBuf::from(&mats)], ..Default::default() },
-    )
-    .unwrap();
-    World::build(s)
-}
 
 #[test]
 fn the_directional_record_holds_the_rays_energy_and_the_direct_sound_decodes_to_the_source() {

@@ -111,3 +111,30 @@ pub fn read_npy_f64(path: &Path) -> (Vec<usize>, Vec<f64>) {
     assert_eq!(values.len(), shape.iter().product::<usize>(), "{}", path.display());
     (shape, values)
 }
+
+/// The OBJ text of a closed box [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
+pub fn box_obj([x, y, z]: [f32; 3]) -> String {
+    format!(
+        "v 0 0 0\nv {x} 0 0\nv {x} {y} 0\nv 0 {y} 0\nv 0 0 {z}\nv {x} 0 {z}\nv {x} {y} {z}\nv 0 {y} {z}\n\
+         usemtl test_wall\nf 1 4 3 2\nf 5 6 7 8\nf 1 2 6 5\nf 2 3 7 6\nf 3 4 8 7\nf 4 1 5 8\n"
+    )
+}
+
+/// A closed box room [0,x]x[0,y]x[0,z] whose every face is material "test_wall".
+pub fn box_room(dir: &Path, size: [f32; 3], absorption: f32, scattering: f32) -> propsim::scene::World {
+    let obj = box_obj(size);
+    let obj_path = dir.join("room.obj");
+    std::fs::write(&obj_path, obj).unwrap();
+    let mats = dir.join("mats.toml");
+    std::fs::write(
+        &mats,
+        format!("[materials.test_wall]\nabsorption = {absorption}\nscattering = {scattering}\n"),
+    )
+    .unwrap();
+    let s = propsim::scene::load(
+        &obj_path,
+        &propsim::scene::LoadOptions { materials_files: vec![mats.clone()], ..Default::default() },
+    )
+    .unwrap();
+    propsim::scene::World::build(s)
+}
