@@ -149,6 +149,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         rain_in_view: &[],
         directivity: None,
         directions: None,
+        edge_scattering: None,
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };
     let spec = Launch {

@@ -6,6 +6,7 @@
 use glam::{DVec3, Vec3};
 
 use super::directivity::Directivity;
+use super::edge_scattering::EdgeScattering;
 use super::tracer::SurfaceAcoustics;
 use crate::core::Accel;
 use crate::core::specular::{Planes, specular_paths};
@@ -30,6 +31,9 @@ pub struct Arrival {
     /// Unit vector from the receiver towards the path's last reflection point (the source for
     /// the direct sound): the direction the sound arrives from.
     pub incoming: [f64; 3],
+    /// True for a path diffracted by an edge ([`super::diffraction`]), false for the direct
+    /// sound and specular reflections.
+    pub diffracted: bool,
 }
 
 /// The specular arrivals of up to `order` reflections from `source` to `receiver`, in the
@@ -45,16 +49,28 @@ pub fn specular_arrivals(
     receiver: Vec3,
     order: u32,
 ) -> Vec<Arrival> {
-    specular_arrivals_from(accel, planes, surfaces, air_per_m, (source, &Directivity::OMNI), receiver, order)
+    specular_arrivals_from(
+        accel,
+        planes,
+        surfaces,
+        None,
+        air_per_m,
+        (source, &Directivity::OMNI),
+        receiver,
+        order,
+    )
 }
 
 /// [`specular_arrivals`] from a directional source: each path's energy is also weighted by
 /// the source's normalised energy weight in its direction of emission ([`Arrival::emitted`];
-/// docs/acoustics.md, Directivity).
+/// docs/acoustics.md, Directivity), and with the finite panels' edge scattering
+/// (`edge_scattering`, [`super::edge_scattering`]) taken from each reflection's specular part.
+#[allow(clippy::too_many_arguments)]
 pub fn specular_arrivals_from(
     accel: &Accel,
     planes: &Planes,
     surfaces: &[SurfaceAcoustics],
+    edge_scattering: Option<&EdgeScattering>,
     air_per_m: &BandValues,
     (source, directivity): (Vec3, &Directivity),
     receiver: Vec3,
@@ -71,10 +87,24 @@ pub fn specular_arrivals_from(
             let weight = directivity.energy_weights(emitted.as_vec3());
             let energy = std::array::from_fn(|b| {
                 let mut e = spreading * f64::from(weight[b]) * (-f64::from(air_per_m[b]) * p.length_m).exp();
-                for s in p.surfaces() {
-                    e *= surfaces
-                        .get(s as usize)
-                        .map_or(0.0, |sa| f64::from((1.0 - sa.absorption[b]) * (1.0 - sa.scattering[b])));
+                for (i, r) in p.reflections.iter().enumerate() {
+                    let Some(sa) = surfaces.get(r.surface as usize) else { return 0.0 };
+                    let s = match edge_scattering {
+                        Some(es) => {
+                            let (d1, d2) =
+                                (points[i].distance(points[i + 1]), points[i + 1].distance(points[i + 2]));
+                            let all = es.scattering(
+                                r.triangle,
+                                &sa.scattering,
+                                r.cos_incidence as f32,
+                                d1 as f32,
+                                Some(d2 as f32),
+                            );
+                            all[b]
+                        }
+                        None => sa.scattering[b],
+                    };
+                    e *= f64::from((1.0 - sa.absorption[b]) * (1.0 - s));
                 }
                 e
             });
@@ -84,6 +114,7 @@ pub fn specular_arrivals_from(
                 energy,
                 emitted: emitted.to_array(),
                 incoming: incoming.to_array(),
+                diffracted: false,
             }
         })
         .collect()

@@ -5,8 +5,10 @@
 pub mod air;
 pub mod ambisonics;
 pub mod auralize;
+pub mod diffraction;
 pub mod directions;
 pub mod directivity;
+pub mod edge_scattering;
 pub mod hrtf;
 pub mod image_source;
 pub mod impulse_response;

@@ -43,6 +43,11 @@ pub struct AcousticOptions {
     /// them are otherwise split into copies, which smooths the late decay).
     #[arg(long)]
     pub no_splitting: bool,
+    /// Switch off edge diffraction (on by default wherever the room has free edges: the
+    /// first-order diffraction of the direct sound, the rays' diffraction near edges and the
+    /// scattering of finite surfaces; docs/acoustics.md, Edge diffraction).
+    #[arg(long)]
+    pub no_diffraction: bool,
     /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
     /// higher is smoother late decay for more time.
     #[arg(long)]
@@ -96,6 +101,7 @@ impl Default for AcousticOptions {
             no_air: false,
             no_diffuse_rain: false,
             no_splitting: false,
+            no_diffraction: false,
             roulette_db: None,
             temperature_c: None,
             humidity_percent: None,

@@ -5,8 +5,10 @@ use glam::Vec3;
 use serde::Serialize;
 
 use super::air::Air;
+use super::diffraction::{edge_arrivals, room_edges};
 use super::directions::{CELLS, DirectionBins};
 use super::directivity::Directivity;
+use super::edge_scattering::EdgeScattering;
 use super::image_source::{Arrival, specular_arrivals_from};
 use super::metrics::{BandMetrics, band_metrics_for_source, pair_warnings};
 use super::room::reverberation_times;
@@ -101,6 +103,8 @@ pub struct AcousticSettings {
     /// this many copies, each of a share of its energy, where it keeps far more energy than
     /// the room's average decay leaves (1: no splitting).
     pub split_copies: u32,
+    /// Edge diffraction where the room has free edges ([`super::diffraction`]).
+    pub diffraction: bool,
     /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
     /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
     pub ambisonic_order: u32,
@@ -154,6 +158,7 @@ impl Default for AcousticSettings {
             roulette_db: 30.0,
             diffuse_rain: true,
             split_copies: SPLIT_COPIES,
+            diffraction: true,
             ambisonic_order: 0,
             binaural: false,
             hrtf: None,
@@ -180,6 +185,8 @@ pub struct PairResult {
     pub metrics: [BandMetrics; BAND_COUNT],
     /// Image-source paths found (including the direct sound).
     pub specular_paths: usize,
+    /// First-order edge-diffracted paths found ([`super::diffraction`]).
+    pub diffracted_paths: usize,
     /// Deposits at the receiver recorded in the histogram (ray crossings and diffuse rain).
     pub detections: u64,
     /// The receiver's head (the frame of its Ambisonic and binaural responses).
@@ -486,6 +493,11 @@ pub fn simulate_on(
     };
     let ism_order =
         if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
+    // The free edges that diffract (none in a closed box: its edges are concave seen from
+    // the air), and the finite panels they bound, which scatter by diffraction.
+    let wedges = if settings.diffraction { room_edges(world) } else { Vec::new() };
+    let mean_free_path_m = 4.0 * volume_m3 / areas.iter().sum::<f64>();
+    let edge_scattering = EdgeScattering::of(&scene.mesh, &wedges, c, mean_free_path_m);
     // Which triangles each receiver sees whole: their rain needs no occlusion ray.
     let rain_in_view: Vec<Option<Vec<crate::core::visibility::PartsInView>>> = if settings.diffuse_rain {
         spheres.iter().map(|r| triangles_in_full_view(&scene.mesh, &scene.spheres, r.center)).collect()
@@ -515,6 +527,7 @@ pub fn simulate_on(
             rain_in_view: &rain_in_view,
             directivity,
             directions: settings.keeps_directions().then(|| settings.direction_bins()),
+            edge_scattering: edge_scattering.as_ref(),
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),
@@ -533,15 +546,31 @@ pub fn simulate_on(
                 .iter()
                 .map(|r| {
                     let rcv = Vec3::from(r.position);
-                    specular_arrivals_from(
+                    let mut arrivals = specular_arrivals_from(
                         &world.accel,
                         &planes,
                         &surfaces,
+                        edge_scattering.as_ref(),
                         &air_per_m,
                         (src, &source.directivity),
                         rcv,
                         ism_order,
-                    )
+                    );
+                    if !wedges.is_empty() && settings.use_image_sources {
+                        let direct = arrivals.iter_mut().find(|a| a.order == 0);
+                        let diffracted = edge_arrivals(
+                            &world.accel,
+                            &wedges,
+                            &surfaces,
+                            &air_per_m,
+                            c,
+                            (src, &source.directivity),
+                            rcv,
+                            direct,
+                        );
+                        arrivals.extend(diffracted);
+                    }
+                    arrivals
                 })
                 .collect()
         } else {
@@ -668,7 +697,8 @@ pub fn simulate_on(
                 direct_s,
                 histogram: hist,
                 metrics,
-                specular_paths: paths.len(),
+                specular_paths: paths.iter().filter(|a| !a.diffracted).count(),
+                diffracted_paths: paths.iter().filter(|a| a.diffracted).count(),
                 detections: detections[ri],
                 warnings,
             });

@@ -335,6 +335,7 @@ mod tests {
             energy: [1e-3; BAND_COUNT],
             emitted: (-from).to_array(),
             incoming: from.to_array(),
+            diffracted: false,
         };
         (hist, vec![arrival])
     }

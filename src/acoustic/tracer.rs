@@ -6,6 +6,7 @@ use glam::{Vec2, Vec3, Vec4};
 
 use super::directions::{CELLS, DirectionBins, cell_of};
 use super::directivity::Directivity;
+use super::edge_scattering::EdgeScattering;
 use crate::core::TimeBins;
 use crate::core::accel::Accel;
 use crate::core::fixed::add_fixed;
@@ -165,6 +166,9 @@ pub struct SoundPropagation<'a> {
     /// Directions of arrival: `Some(bins)` keeps each receiver's energy per direction cell in
     /// those time bins ([`TraceRecord::dir_fixed`]); `None` keeps none (no cost).
     pub directions: Option<DirectionBins>,
+    /// The finite panels that scatter by diffraction at their free edges
+    /// ([`super::edge_scattering`]); `None`: only the materials scatter.
+    pub edge_scattering: Option<&'a EdgeScattering>,
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -355,7 +359,21 @@ impl Propagation for SoundPropagation<'_> {
         rng: &mut Rng64,
     ) -> Bounce {
         let surface = &self.surfaces[hit.surface as usize];
-        let (a, s) = (&surface.absorption, &surface.scattering);
+        let on_panel;
+        let s = match (self.edge_scattering, hit.kind) {
+            (Some(es), PrimitiveKind::Triangle) => {
+                on_panel = es.scattering(
+                    hit.primitive,
+                    &surface.scattering,
+                    incoming.dot(hit.normal).abs(),
+                    hit.t,
+                    None,
+                );
+                &on_panel
+            }
+            _ => &surface.scattering,
+        };
+        let a = &surface.absorption;
         // The eight bands as two 4-lane vectors; the sums add in a fixed order.
         let (e_lo, e_hi) = halves(&ray_state.energy);
         let (s_lo, s_hi) = halves(s);

@@ -4,6 +4,7 @@
 
 pub mod accel;
 pub mod bench;
+pub mod complex;
 pub mod convex;
 pub mod fixed;
 pub mod flat;
@@ -25,6 +26,7 @@ pub mod time_bins;
 #[allow(unsafe_code)]
 pub mod traverse;
 pub mod triangle;
+pub mod utd;
 pub mod visibility;
 pub mod wedges;
 

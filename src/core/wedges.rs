@@ -50,6 +50,8 @@ pub struct Wedge {
     pub n: f64,
     /// Surfaces of face 0 and face n (the same twice for a rim).
     pub surfaces: [SurfaceId; 2],
+    /// The mesh triangles of face 0 and face n on this edge (the same twice for a rim).
+    pub triangles: [u32; 2],
     /// True for a rim: an edge of a single triangle.
     pub rim: bool,
 }
@@ -129,46 +131,119 @@ fn vertex_key(p: Vec3, tolerance: f64) -> Option<[i64; 3]> {
     Some([k.x.round() as i64, k.y.round() as i64, k.z.round() as i64])
 }
 
+/// The mesh's edges after merging vertices by position: the merged points, and for each
+/// edge (smaller id, larger id) the triangles on it with their third vertex.
+struct EdgeMap {
+    points: Vec<DVec3>,
+    edges: HashMap<(u32, u32), Vec<(usize, u32)>>,
+    tolerance: f64,
+}
+
+impl EdgeMap {
+    /// Degenerate triangles (zero area, or a non-finite corner) are left out. Vertices closer
+    /// than `1e-6` of the mesh's extent (at least 1e-6 m) are merged.
+    fn of(mesh: &TriangleMesh) -> Option<Self> {
+        let (lo, hi) = mesh.bounds()?;
+        let extent = f64::from((hi - lo).length());
+        let tolerance = if extent.is_finite() { (extent * 1.0e-6).max(1.0e-6) } else { 1.0e-6 };
+        // Merged vertex id of each position index.
+        let mut ids: HashMap<[i64; 3], u32> = HashMap::new();
+        let mut merged: Vec<Option<u32>> = Vec::with_capacity(mesh.positions.len());
+        let mut points: Vec<DVec3> = Vec::new();
+        for &p in &mesh.positions {
+            merged.push(vertex_key(p, tolerance).map(|k| {
+                *ids.entry(k).or_insert_with(|| {
+                    points.push(p.as_dvec3());
+                    (points.len() - 1) as u32
+                })
+            }));
+        }
+        let mut edges: HashMap<(u32, u32), Vec<(usize, u32)>> = HashMap::new();
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            let v: Option<Vec<u32>> =
+                tri.iter().map(|&i| merged.get(i as usize).copied().flatten()).collect();
+            let Some(v) = v else { continue };
+            if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
+                continue;
+            }
+            let (a, b, c) = (points[v[0] as usize], points[v[1] as usize], points[v[2] as usize]);
+            let area2 = (b - a).cross(c - a).length();
+            if area2.is_nan() || area2 <= 1.0e-12 {
+                continue;
+            }
+            for k in 0..3 {
+                let (p, q, r) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
+                edges.entry((p.min(q), p.max(q))).or_default().push((t, r));
+            }
+        }
+        Some(Self { points, edges, tolerance })
+    }
+
+    /// The unit direction perpendicular to edge `a`-`b` (unit `e`) towards vertex `third`.
+    fn dir_to(&self, a: DVec3, e: DVec3, third: u32) -> DVec3 {
+        let d = self.points[third as usize] - a;
+        (d - d.dot(e) * e).normalize_or_zero()
+    }
+}
+
+/// The planar region of every triangle: triangles that share an edge and lie in one plane
+/// (within [`FLAT_TOLERANCE_RAD`]) are in the same region, numbered from 0 in the order of
+/// their first triangle; a degenerate triangle is a region of its own.
+pub fn planar_regions(mesh: &TriangleMesh) -> Vec<u32> {
+    let n = mesh.triangles.len();
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    if let Some(map) = EdgeMap::of(mesh) {
+        for (&(ia, ib), on) in &map.edges {
+            if on.len() != 2 {
+                continue;
+            }
+            let (a, b) = (map.points[ia as usize], map.points[ib as usize]);
+            let e = (b - a).normalize_or_zero();
+            let (t0, t1) = (map.dir_to(a, e, on[0].1), map.dir_to(a, e, on[1].1));
+            if t0 == DVec3::ZERO || t1 == DVec3::ZERO {
+                continue;
+            }
+            let interior = t0.dot(t1).clamp(-1.0, 1.0).acos();
+            if (std::f64::consts::PI - interior).abs() < FLAT_TOLERANCE_RAD {
+                let (x, y) = (root(&mut parent, on[0].0), root(&mut parent, on[1].0));
+                // The smaller index becomes the root: the numbering does not depend on the
+                // hash map's order.
+                let (lo, hi) = (x.min(y), x.max(y));
+                parent[hi] = lo;
+            }
+        }
+    }
+    let mut number = vec![u32::MAX; n];
+    let mut next = 0;
+    let mut out = vec![0u32; n];
+    for (t, region) in out.iter_mut().enumerate() {
+        let r = root(&mut parent, t);
+        if number[r] == u32::MAX {
+            number[r] = next;
+            next += 1;
+        }
+        *region = number[r];
+    }
+    out
+}
+
 /// Every wedge and rim of `mesh` (see the module doc), in a deterministic order (by merged
 /// vertex ids). Degenerate triangles (zero area, or a non-finite corner) and zero-length
 /// edges are ignored. Vertices closer than `1e-6` of the mesh's extent (at least 1e-6 m)
 /// are merged.
 pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
-    let Some((lo, hi)) = mesh.bounds() else {
+    let Some(map) = EdgeMap::of(mesh) else {
         return Vec::new();
     };
-    let extent = f64::from((hi - lo).length());
-    let tolerance = if extent.is_finite() { (extent * 1.0e-6).max(1.0e-6) } else { 1.0e-6 };
-    // Merged vertex id of each position index.
-    let mut ids: HashMap<[i64; 3], u32> = HashMap::new();
-    let mut merged: Vec<Option<u32>> = Vec::with_capacity(mesh.positions.len());
-    let mut points: Vec<DVec3> = Vec::new();
-    for &p in &mesh.positions {
-        merged.push(vertex_key(p, tolerance).map(|k| {
-            *ids.entry(k).or_insert_with(|| {
-                points.push(p.as_dvec3());
-                (points.len() - 1) as u32
-            })
-        }));
-    }
-    // Edge (smaller id, larger id) -> the triangles on it, with their third vertex.
-    let mut edges: HashMap<(u32, u32), Vec<(usize, u32)>> = HashMap::new();
-    for (t, tri) in mesh.triangles.iter().enumerate() {
-        let v: Option<Vec<u32>> = tri.iter().map(|&i| merged.get(i as usize).copied().flatten()).collect();
-        let Some(v) = v else { continue };
-        if v[0] == v[1] || v[1] == v[2] || v[0] == v[2] {
-            continue;
-        }
-        let (a, b, c) = (points[v[0] as usize], points[v[1] as usize], points[v[2] as usize]);
-        let area2 = (b - a).cross(c - a).length();
-        if area2.is_nan() || area2 <= 1.0e-12 {
-            continue;
-        }
-        for k in 0..3 {
-            let (p, q, r) = (v[k], v[(k + 1) % 3], v[(k + 2) % 3]);
-            edges.entry((p.min(q), p.max(q))).or_default().push((t, r));
-        }
-    }
+    let EdgeMap { points, edges, tolerance } = &map;
+    let tolerance = *tolerance;
     let mut keys: Vec<(u32, u32)> = edges.keys().copied().collect();
     keys.sort_unstable();
     let mut out = Vec::new();
@@ -183,10 +258,7 @@ pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
             continue;
         }
         let e = (b - a) / length;
-        let dir_to = |third: u32| {
-            let d = points[third as usize] - a;
-            (d - d.dot(e) * e).normalize_or_zero()
-        };
+        let dir_to = |third: u32| map.dir_to(a, e, third);
         let surface = |t: usize| mesh.surface_of_triangle.get(t).copied().unwrap_or(0);
         if on.len() == 1 {
             let t0 = dir_to(on[0].1);
@@ -204,6 +276,7 @@ pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
                 normals: [e.cross(t0), -e.cross(t0)],
                 n: 2.0,
                 surfaces: [s, s],
+                triangles: [on[0].0 as u32; 2],
                 rim: true,
             });
             continue;
@@ -233,6 +306,7 @@ pub fn extract_wedges(mesh: &TriangleMesh) -> Vec<Wedge> {
             normals: [edge.cross(t0), normal_n],
             n,
             surfaces: [surface(on[0].0), surface(on[1].0)],
+            triangles: [on[0].0 as u32, on[1].0 as u32],
             rim: false,
         });
     }
@@ -276,6 +350,28 @@ fn exterior_is_free(accel: &Accel, w: &Wedge) -> bool {
         }
     }
     true
+}
+
+/// The distance a visibility ray stops short of an edge point, metres, near `p`.
+fn edge_offset(p: DVec3) -> f64 {
+    1.0e-3 + 2.0e-6 * p.abs().max_element()
+}
+
+/// True when nothing of `accel` lies between the edge point `q` and `p` (the ends left out,
+/// by a millimetre or so, so that the edge's own faces do not block its paths).
+pub fn clear_of_edge(accel: &Accel, q: DVec3, p: DVec3) -> bool {
+    let d = p - q;
+    let len = d.length();
+    if !(len.is_finite() && len > 0.0) {
+        return false;
+    }
+    let eps = edge_offset(q).max(edge_offset(p));
+    if len <= 2.0 * eps {
+        return true;
+    }
+    let ray =
+        Ray { origin: q.as_vec3(), dir: (d / len).as_vec3(), t_min: eps as f32, t_max: (len - eps) as f32 };
+    !accel.occluded(&ray)
 }
 
 #[cfg(test)]
@@ -361,6 +457,7 @@ mod tests {
             normals: [DVec3::Y, -DVec3::Y],
             n: 2.0,
             surfaces: [0, 0],
+            triangles: [0, 0],
             rim: true,
         };
         let (a, b) = (DVec3::new(3.0, 4.0, 1.0), DVec3::new(-1.0, -2.0, 7.0));
