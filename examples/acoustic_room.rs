@@ -19,6 +19,7 @@ fn main() -> anyhow::Result<()> {
         position: [7.0, 5.0, 1.2],
         radius_m: None,
         listener: Default::default(),
+        directivity: Default::default(),
     };
     let settings = AcousticSettings { rays: 100_000, ..Default::default() };
     let result = simulate(&world, &[source], &[receiver], &settings, &|_| {}).map_err(anyhow::Error::msg)?;

@@ -237,6 +237,7 @@ fn a_closed_box_has_no_free_edge_and_does_not_change() {
         position: [4.5, 3.0, 1.2],
         radius_m: Some(0.3),
         listener: Default::default(),
+        directivity: Default::default(),
     }];
     let run = |diffraction| {
         let settings = AcousticSettings { rays: 4000, diffraction, ..Default::default() };

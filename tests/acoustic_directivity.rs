@@ -26,6 +26,7 @@ fn run(
             position: p,
             radius_m: Some(0.3),
             listener: Default::default(),
+            directivity: Default::default(),
         })
         .collect();
     simulate(world, &sources, &receivers, settings, &|_| {}).unwrap()
@@ -119,4 +120,74 @@ fn unknown_patterns_are_one_line_errors_naming_the_file() {
     for name in propsim::acoustic::directivity::PATTERN_NAMES {
         assert!(e.contains(name), "{e} lacks {name}");
     }
+}
+
+/// The source of [`run`] (omni) heard by one receiver at `position` with `directivity`.
+fn run_receiver(
+    world: &World,
+    position: [f32; 3],
+    directivity: Directivity,
+    settings: &AcousticSettings,
+) -> AcousticResult {
+    let sources =
+        [SourceSpec { name: "S".into(), position: SOURCE, power_w: 1.0, directivity: Directivity::OMNI }];
+    let receivers = [ReceiverSpec {
+        name: "R".into(),
+        position,
+        radius_m: Some(0.3),
+        listener: Default::default(),
+        directivity,
+    }];
+    simulate(world, &sources, &receivers, settings, &|_| {}).unwrap()
+}
+
+#[test]
+fn a_directional_receiver_hears_the_direct_sound_by_its_pattern_and_a_third_of_the_diffuse_field() {
+    // A cardioid microphone's energy sensitivity is g^2 = ((1 + cos theta) / 2)^2, 1 on its
+    // axis: the direct sound from 0, 90 and 180 degrees is 1, 1/4 and 0 times the omni's, and
+    // in a diffuse field, where sound comes from every direction alike, it hears the mean of
+    // g^2 over the sphere, a^2 + (1 - a)^2 / 3 = 1/3 of the omni's late energy.
+    let dir = tempfile::tempdir().unwrap();
+    let world = box_room(dir.path(), [10.0, 8.0, 3.0], 0.2, 0.7);
+    let settings = AcousticSettings { rays: 100_000, air_absorption: false, ..Default::default() };
+    let position = [7.0, 5.0, 1.2];
+    let omni = run_receiver(&world, position, Directivity::OMNI, &settings);
+    let to_source = glam::Vec3::from(SOURCE) - glam::Vec3::from(position);
+    let facing = |axis: glam::Vec3| Directivity::uniform(FirstOrder::CARDIOID, axis).unwrap();
+    let side = to_source.cross(glam::Vec3::Z);
+    let direct = |r: &AcousticResult| {
+        let p = &r.pairs[0];
+        p.image_sources.iter().find(|a| a.order == 0).expect("the direct sound").energy[4]
+    };
+    for (axis, want) in [(to_source, 1.0), (side, 0.25), (-to_source, 0.0)] {
+        let r = run_receiver(&world, position, facing(axis), &settings);
+        let ratio = direct(&r) / direct(&omni);
+        assert!((ratio - want).abs() < 1e-5, "axis {axis}: direct ratio {ratio} vs {want}");
+        if want == 0.25 {
+            let late =
+                |r: &AcousticResult, b: usize| r.pairs[0].histogram[100..].iter().map(|h| h[b]).sum::<f64>();
+            for b in 0..8 {
+                let ratio = late(&r, b) / late(&omni, b);
+                eprintln!("band {b}: late energy cardioid receiver / omni = {ratio:.4}");
+                assert!((ratio - 1.0 / 3.0).abs() < 0.03, "band {b}: {ratio} vs 1/3");
+            }
+        }
+    }
+}
+
+#[test]
+fn an_unknown_receiver_pattern_is_a_one_line_error() {
+    common::assert_clean_error(
+        &[
+            "acoustic",
+            "builtin:shoebox",
+            "--rays",
+            "100",
+            "--receiver-directivity",
+            "shotgun",
+            "--out",
+            "/nonexistent/x",
+        ],
+        &["--receiver-directivity shotgun", "cardioid"],
+    );
 }

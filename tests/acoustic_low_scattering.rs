@@ -54,8 +54,13 @@ fn run(world: &World, settings: &AcousticSettings, radius_m: Option<f32>) -> Aco
     let f = |p: [f64; 3]| p.map(|v| v as f32);
     let sources =
         [SourceSpec { name: "S".into(), position: f(SOURCE), power_w: 1.0, directivity: Default::default() }];
-    let receivers =
-        [ReceiverSpec { name: "R".into(), position: f(RECEIVER), radius_m, listener: Default::default() }];
+    let receivers = [ReceiverSpec {
+        name: "R".into(),
+        position: f(RECEIVER),
+        radius_m,
+        listener: Default::default(),
+        directivity: Default::default(),
+    }];
     simulate(world, &sources, &receivers, settings, &|_| {}).unwrap()
 }
 

@@ -13,7 +13,13 @@ fn src(p: [f32; 3]) -> Vec<SourceSpec> {
 }
 
 fn rcv(p: [f32; 3], r: Option<f32>) -> Vec<ReceiverSpec> {
-    vec![ReceiverSpec { name: "R".into(), position: p, radius_m: r, listener: Default::default() }]
+    vec![ReceiverSpec {
+        name: "R".into(),
+        position: p,
+        radius_m: r,
+        listener: Default::default(),
+        directivity: Default::default(),
+    }]
 }
 
 #[test]
@@ -150,6 +156,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         directivity: None,
         directions: None,
         edge_scattering: None,
+        receiver_directivity: &[],
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };
     let spec = Launch {

@@ -28,8 +28,13 @@ fn the_directional_record_holds_the_rays_energy_and_the_direct_sound_decodes_to_
     let (src, rcv) = ([2.0f32, 3.0, 1.5], [7.0f32, 5.5, 1.2]);
     let sources =
         [SourceSpec { name: "S".into(), position: src, power_w: 1.0, directivity: Default::default() }];
-    let receivers =
-        [ReceiverSpec { name: "R".into(), position: rcv, radius_m: Some(0.3), listener: Default::default() }];
+    let receivers = [ReceiverSpec {
+        name: "R".into(),
+        position: rcv,
+        radius_m: Some(0.3),
+        listener: Default::default(),
+        directivity: Default::default(),
+    }];
     let r = simulate(&world, &sources, &receivers, &settings, &|_| {}).unwrap();
     let p = &r.pairs[0];
     let bins = settings.direction_bins();

@@ -91,6 +91,7 @@ fn the_acoustic_simulation_counts_the_radio_paths() {
             position: p,
             radius_m: Some(0.1),
             listener: Default::default(),
+            directivity: Default::default(),
         })
         .collect();
     let result = simulate(&world, &sources, &receivers, &settings, &|_| {}).unwrap();

@@ -151,6 +151,20 @@ impl Directivity {
         self.bands.map(|p| p.energy_weight(c))
     }
 
+    /// A receiver's energy sensitivity per band to sound arriving from the unit direction
+    /// `dir` (pointing from the receiver towards where the sound comes from): the pattern's
+    /// squared pressure gain, 1 on its axis, as a microphone's free-field response is
+    /// normalised. Its mean over the sphere (the diffuse-field sensitivity) is
+    /// `a^2 + (1 - a)^2 / 3`: 1/3 for the cardioid.
+    #[inline]
+    pub fn sensitivity(&self, dir: Vec3) -> BandValues {
+        let c = dir.dot(Vec3::from(self.axis)).clamp(-1.0, 1.0);
+        self.bands.map(|p| {
+            let g = p.gain(c);
+            g * g
+        })
+    }
+
     /// The scene file's description of one source: `directivity` (a name of
     /// [`PATTERN_NAMES`]; omni when absent), `directivity_alpha` (the `a` of "mix", one value
     /// or one per band; an error with any other pattern) and `orientation` (the axis; +x when
@@ -202,15 +216,16 @@ impl Directivity {
     }
 }
 
-/// The directivity of every acoustic source of `world`'s scene file, in their order; an
-/// error names the source (the caller adds the file name).
+/// The directivity of every acoustic source, then every receiver, of `world`'s scene file, in
+/// their order; an error names the point (the caller adds the file name).
 pub fn scene_directivities(world: &crate::scene::World) -> Result<Vec<Directivity>, String> {
     let Some(desc) = &world.scene.desc.acoustic else { return Ok(Vec::new()) };
-    desc.sources
-        .iter()
-        .map(|p| {
+    let sources = desc.sources.iter().map(|p| ("source", p));
+    sources
+        .chain(desc.receivers.iter().map(|p| ("receiver", p)))
+        .map(|(kind, p)| {
             Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
-                .map_err(|e| format!("source \"{}\": {e}", p.name))
+                .map_err(|e| format!("{kind} \"{}\": {e}", p.name))
         })
         .collect()
 }

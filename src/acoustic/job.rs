@@ -66,6 +66,7 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
                 position: *p,
                 radius_m: options.receiver_radius_m,
                 listener: Default::default(),
+                directivity: Directivity::OMNI,
             })
             .collect()
     };
@@ -100,6 +101,7 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             position: p.to_array(),
             radius_m: options.receiver_radius_m,
             listener: Default::default(),
+            directivity: Directivity::OMNI,
         });
     }
     match (&options.directivity, options.orientation) {
@@ -122,6 +124,28 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
                 }
             }
         }
+    }
+    if let Some(axis) = options.receiver_orientation {
+        for r in &mut receivers {
+            let up = r.listener.up.as_vec3().to_array();
+            r.listener = crate::acoustic::spatial::Listener::looking(axis, up)
+                .map_err(|e| anyhow::anyhow!("--receiver-orientation: {e}"))?;
+            r.directivity = Directivity::per_band(r.directivity.bands, glam::Vec3::from(axis))
+                .map_err(|e| anyhow::anyhow!("--receiver-orientation: {e}"))?;
+        }
+    }
+    match &options.receiver_directivity {
+        Some(name) => {
+            for r in &mut receivers {
+                let axis = Some(r.directivity.axis);
+                r.directivity = Directivity::parse(name, options.receiver_directivity_alpha, axis)
+                    .map_err(|e| anyhow::anyhow!("--receiver-directivity {name}: {e}"))?;
+            }
+        }
+        None => anyhow::ensure!(
+            options.receiver_directivity_alpha.is_none(),
+            "--receiver-directivity-alpha applies only with --receiver-directivity mix"
+        ),
     }
     let air = Air {
         temperature_c: options.temperature_c.or(desc.temperature_c.map(f64::from)).unwrap_or(20.0),

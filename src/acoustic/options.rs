@@ -70,6 +70,18 @@ pub struct AcousticOptions {
     /// (default: the scene's orientation, else +x).
     #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
     pub orientation: Option<[f32; 3]>,
+    /// Directivity of every receiver (a directional microphone), replacing the scene's: the
+    /// names of --directivity; its squared gain, 1 on the axis, weights each arrival.
+    #[arg(long, value_name = "PATTERN")]
+    pub receiver_directivity: Option<String>,
+    /// The omni share a of --receiver-directivity mix, in [0, 1].
+    #[arg(long, value_name = "A")]
+    pub receiver_directivity_alpha: Option<f32>,
+    /// The direction X,Y,Z every receiver faces, replacing the scene's: its pattern's axis and
+    /// the way its head looks for the binaural and Ambisonic responses (default: the
+    /// scene's orientation, else +x).
+    #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
+    pub receiver_orientation: Option<[f32; 3]>,
     /// Also write Ambisonic impulse responses ambix_SOURCE_RECEIVER.wav of this order (1 to
     /// 3; ACN, SN3D; 0: none).
     #[arg(long, default_value_t = 0, value_parser = clap::value_parser!(u32).range(0..=3))]
@@ -108,6 +120,9 @@ impl Default for AcousticOptions {
             directivity: None,
             directivity_alpha: None,
             orientation: None,
+            receiver_directivity: None,
+            receiver_directivity_alpha: None,
+            receiver_orientation: None,
             ambisonic_order: 0,
             binaural: false,
             hrtf: None,

@@ -68,6 +68,10 @@ pub struct ReceiverSpec {
     /// responses; the default looks along +x with +z up.
     #[serde(skip)]
     pub listener: Listener,
+    /// How the receiver hears: a directional microphone's pattern per band, its squared gain
+    /// weighting every arrival by the direction it comes from
+    /// ([`Directivity::sensitivity`], 1 on the axis); [`Directivity::OMNI`] by default.
+    pub directivity: Directivity,
 }
 
 /// Simulation settings.
@@ -288,6 +292,8 @@ pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
             radius_m: p.radius_m,
             // An invalid head is refused by [`super::plan`]; here it falls back to the default.
             listener: scene_listener(p).unwrap_or_default(),
+            directivity: Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
+                .unwrap_or_default(),
         })
         .collect();
     (sources, receivers)
@@ -504,6 +510,14 @@ pub fn simulate_on(
     } else {
         Vec::new()
     };
+    // The receivers' directivities (`None`: omni, no weights to apply).
+    let receiver_directivity: Vec<Option<Directivity>> = receivers
+        .iter()
+        .map(|r| {
+            r.directivity.validate().map_err(|e| format!("receiver \"{}\": {e}", r.name))?;
+            Ok((!r.directivity.is_omni()).then_some(r.directivity))
+        })
+        .collect::<Result<_, String>>()?;
     let mut pairs = Vec::new();
     let mut escaped = 0.0;
     let mut segments = 0u64;
@@ -528,6 +542,7 @@ pub fn simulate_on(
             directivity,
             directions: settings.keeps_directions().then(|| settings.direction_bins()),
             edge_scattering: edge_scattering.as_ref(),
+            receiver_directivity: &receiver_directivity,
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),
@@ -556,6 +571,14 @@ pub fn simulate_on(
                         rcv,
                         ism_order,
                     );
+                    let sensitivity = |arrivals: &mut Vec<Arrival>| {
+                        if !r.directivity.is_omni() {
+                            for a in arrivals {
+                                let w = r.directivity.sensitivity(glam::DVec3::from(a.incoming).as_vec3());
+                                a.energy = std::array::from_fn(|b| a.energy[b] * f64::from(w[b]));
+                            }
+                        }
+                    };
                     if !wedges.is_empty() && settings.use_image_sources {
                         let direct = arrivals.iter_mut().find(|a| a.order == 0);
                         let diffracted = edge_arrivals(
@@ -570,6 +593,9 @@ pub fn simulate_on(
                         );
                         arrivals.extend(diffracted);
                     }
+                    // (After the coherent sums of the direct and diffracted sound, whose
+                    // directions nearly agree wherever their cross term matters.)
+                    sensitivity(&mut arrivals);
                     arrivals
                 })
                 .collect()

@@ -169,6 +169,9 @@ pub struct SoundPropagation<'a> {
     /// The finite panels that scatter by diffraction at their free edges
     /// ([`super::edge_scattering`]); `None`: only the materials scatter.
     pub edge_scattering: Option<&'a EdgeScattering>,
+    /// Per receiver, its directivity (`None` or missing: omni): every deposit is weighted by
+    /// its sensitivity to the direction the sound comes from.
+    pub receiver_directivity: &'a [Option<Directivity>],
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -327,7 +330,11 @@ impl Propagation for SoundPropagation<'_> {
             let path_m = path_before_m + 0.5 * (a + b);
             let Some(bin) = self.bins.bin_of_path(f64::from(path_m)) else { continue };
             let per_volume = chord / (4.0 / 3.0 * std::f32::consts::PI * s.radius_m.powi(3));
-            let energy = ray_state.energy.map(|e| e * per_volume);
+            let mut energy = ray_state.energy.map(|e| e * per_volume);
+            if let Some(Some(d)) = self.receiver_directivity.get(i) {
+                let w = d.sensitivity(-ray.dir);
+                energy = std::array::from_fn(|b| energy[b] * w[b]);
+            }
             // The sound comes from where the ray came from.
             let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-ray.dir));
             acc.deposit(i, bin, &energy, direction);
@@ -477,6 +484,10 @@ impl SoundPropagation<'_> {
             let mut energy = [0.0; BAND_COUNT];
             for b in 0..BAND_COUNT {
                 energy[b] = scattered[b] * (1.0 - absorption[b]) * fluence_per_j;
+            }
+            if let Some(Some(dir)) = self.receiver_directivity.get(i) {
+                let w = dir.sensitivity(-to / d);
+                energy = std::array::from_fn(|b| energy[b] * w[b]);
             }
             // The rain comes from the hit point.
             let direction = self.directions.map(|d| d.of(bin) * CELLS + cell_of(-to));
