@@ -284,3 +284,33 @@ fn sound_reaches_around_the_corner_of_an_l_shaped_room_before_any_reflection() {
         .sum();
     assert!(early(&p.histogram) >= arrival * (1.0 - 1e-9));
 }
+
+#[test]
+fn diffraction_panels_and_directional_receivers_give_the_same_bytes_for_one_and_two_threads() {
+    let scene = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("rooms/l_room/scene.toml");
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("t1"), dir.path().join("t2"));
+    for (threads, out) in [("1", &a), ("2", &b)] {
+        let (ok, _, err) = common::propsim(&[
+            "--threads",
+            threads,
+            "acoustic",
+            scene.to_str().unwrap(),
+            "--rays",
+            "5000",
+            "--receiver-directivity",
+            "cardioid",
+            "--ambisonic-order",
+            "1",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{err}");
+    }
+    for f in ["histogram.csv", "metrics.csv", "ir_S1_R2_around_corner.wav", "ambix_S1_R2_around_corner.wav"] {
+        let read = |p: &std::path::Path| std::fs::read(p.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+        assert_eq!(read(&a), read(&b), "{f} differs between 1 and 2 threads");
+    }
+    let json = std::fs::read_to_string(a.join("acoustic.json")).unwrap();
+    assert!(json.contains("\"diffracted_paths\": 1") || json.contains("\"diffracted_paths\": 2"), "{json}");
+}
