@@ -12,6 +12,11 @@ pub enum PrimitiveKind {
     Triangle,
     /// An analytic sphere.
     Sphere,
+    /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles).
+    Instance {
+        /// Index of the instance in the scene's instance list.
+        instance: u32,
+    },
 }
 
 /// A ray-surface intersection.
@@ -26,7 +31,8 @@ pub struct Hit {
     /// Barycentric coordinates (u, v) of the hit: `p = (1-u-v) v0 + u v1 + v v2`.
     /// For spheres: (azimuth/2pi, polar/pi) of the hit direction from the centre.
     pub barycentric: Vec2,
-    /// Index of the primitive in its list (the mesh's triangles, or the spheres).
+    /// Index of the primitive in its list (the mesh's triangles, the spheres, or an
+    /// instance's mesh's triangles).
     pub primitive: u32,
     /// Triangle or sphere.
     pub kind: PrimitiveKind,

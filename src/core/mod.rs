@@ -28,7 +28,7 @@ pub mod triangle;
 pub mod visibility;
 pub mod wedges;
 
-pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
+pub use accel::{Accel, BuildQuality, Instance, InstanceSet, MeshBvh, SphereSet};
 pub use hit::{Hit, PrimitiveKind, SurfaceId};
 pub use mesh::TriangleMesh;
 pub use ray::Ray;

@@ -5,7 +5,7 @@ use glam::Vec3;
 use super::check::{MeshReport, analyze};
 use super::error::SceneError;
 use super::load::Scene;
-use crate::core::{Accel, BuildQuality, accel::point_enclosed};
+use crate::core::{Accel, BuildQuality, PrimitiveKind, accel::point_enclosed};
 
 /// Closest a sound source or receiver, or a radio transmitter, may be to a surface, metres:
 /// nearer, it sits on the surface and half its rays start behind it.
@@ -80,9 +80,12 @@ impl World {
     pub fn is_inside(&self, p: Vec3) -> Option<bool> {
         self.report.air_volume_m3?;
         let r = &self.report;
-        Some(point_enclosed(&self.accel, p, |t| {
-            let c = &r.components[r.component_of_triangle[t as usize] as usize];
-            c.closed && !c.planar
+        Some(point_enclosed(&self.accel, p, |h| match h.kind {
+            PrimitiveKind::Triangle => {
+                let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
+                c.closed && !c.planar
+            }
+            _ => false,
         }))
     }
 
