@@ -42,6 +42,9 @@ pub struct SceneDesc {
     /// Analytic spheres.
     #[serde(default)]
     pub spheres: Vec<SphereDesc>,
+    /// Placed copies of meshes (`[[instances]]`).
+    #[serde(default)]
+    pub instances: Vec<super::instances::InstanceDesc>,
     /// Room-acoustics settings, sources and receivers.
     pub acoustic: Option<AcousticDesc>,
     /// Radio settings, transmitters, grid and receivers.

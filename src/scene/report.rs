@@ -19,6 +19,11 @@ pub struct InfoReport {
     pub triangles: usize,
     /// Number of distinct vertices.
     pub vertices: usize,
+    /// Placed copies of meshes (`[[instances]]`).
+    pub instances: usize,
+    /// Triangles stored once: the scene's own and one copy of each instanced mesh
+    /// (`triangles` counts every copy).
+    pub unique_triangles: usize,
     /// Lower corner of the bounding box, metres.
     pub bounds_min_m: [f32; 3],
     /// Upper corner of the bounding box, metres.
@@ -86,6 +91,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
     let s = &world.scene;
     let r = &world.report;
     let (lo, hi) = s.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let (ilo, ihi) = world.accel.instances.bounds();
+    let (lo, hi) = if ilo.x <= ihi.x { (lo.min(ilo), hi.max(ihi)) } else { (lo, hi) };
     let surfaces = s
         .surfaces
         .iter()
@@ -128,6 +135,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         obj: s.obj_path.display().to_string(),
         triangles: r.triangles,
         vertices: r.distinct_vertices,
+        instances: r.instances,
+        unique_triangles: if r.instances > 0 { r.unique_triangles } else { r.triangles },
         bounds_min_m: lo.to_array(),
         bounds_max_m: hi.to_array(),
         total_area_m2: r.total_area_m2,
@@ -142,8 +151,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         over_shared_edges: r.over_shared_edges,
         misoriented_edges: r.misoriented_edges,
         consistently_oriented: r.is_consistently_oriented(),
-        components: r.components.len(),
-        closed_components: r.components.iter().filter(|c| c.closed).count(),
+        components: r.components.len() + r.instanced_components,
+        closed_components: r.components.iter().filter(|c| c.closed).count() + r.instanced_closed_components,
         air_volume_m3: r.air_volume_m3,
         divergence_volume_m3: r.divergence_volume_m3,
         points,
@@ -157,6 +166,13 @@ pub fn format_report(r: &InfoReport) -> String {
     let v3 = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
     let _ = writeln!(o, "scene:      {}", r.scene);
     let _ = writeln!(o, "geometry:   {} ({} triangles, {} vertices)", r.obj, r.triangles, r.vertices);
+    if r.instances > 0 {
+        let _ = writeln!(
+            o,
+            "instances:  {} copies: {} instanced triangles, {} unique",
+            r.instances, r.triangles, r.unique_triangles
+        );
+    }
     let _ = writeln!(o, "bounds:     {} to {} m", v3(r.bounds_min_m), v3(r.bounds_max_m));
     let _ = writeln!(o, "surfaces:");
     for s in &r.surfaces {

@@ -2,10 +2,11 @@
 
 use glam::Vec3;
 
-use super::check::{MeshReport, analyze};
+use super::check::{MeshReport, add_instances, analyze};
 use super::error::SceneError;
 use super::load::Scene;
-use crate::core::{Accel, BuildQuality, PrimitiveKind, accel::point_enclosed};
+use crate::core::accel::instances::transformed_box;
+use crate::core::{Accel, BuildQuality, InstanceSet, PrimitiveKind, accel::point_enclosed};
 
 /// Closest a sound source or receiver, or a radio transmitter, may be to a surface, metres:
 /// nearer, it sits on the surface and half its rays start behind it.
@@ -51,8 +52,10 @@ pub struct World {
     pub scene: Scene,
     /// The acceleration structure.
     pub accel: Accel,
-    /// The mesh's topology and measures.
+    /// The mesh's topology and measures, the instances' copies included.
     pub report: MeshReport,
+    /// The report of each instanced mesh in its own frame.
+    pub instance_reports: Vec<MeshReport>,
 }
 
 impl World {
@@ -69,9 +72,13 @@ impl World {
 
     /// Builds the acceleration structure and the mesh report of `scene`.
     pub fn build(scene: Scene) -> Self {
-        let accel = Accel::build(&scene.mesh, scene.spheres.clone(), BuildQuality::default());
-        let report = analyze(&scene.mesh);
-        Self { scene, accel, report }
+        let quality = BuildQuality::default();
+        let i = &scene.instances;
+        let accel = Accel::build(&scene.mesh, scene.spheres.clone(), quality)
+            .with_instances(InstanceSet::build(&i.meshes, &i.list, quality));
+        let instance_reports: Vec<MeshReport> = i.meshes.iter().map(analyze).collect();
+        let report = add_instances(analyze(&scene.mesh), &i.meshes, &instance_reports, &i.list);
+        Self { scene, accel, report, instance_reports }
     }
 
     /// Whether `p` lies in the room's air, by crossing parity against the closed, non-planar
@@ -85,17 +92,38 @@ impl World {
                 let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
                 c.closed && !c.planar
             }
-            _ => false,
+            PrimitiveKind::Instance { instance } => {
+                let r = &self.instance_reports[self.scene.instances.list[instance as usize].mesh as usize];
+                let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
+                c.closed && !c.planar
+            }
+            PrimitiveKind::Sphere => false,
         }))
     }
 
-    /// Distance from `p` to the nearest surface (triangle or sphere), metres; infinite for an
-    /// empty scene. Linear in the triangle count: meant for a handful of points.
+    /// Distance from `p` to the nearest surface (triangle, sphere or instance), metres;
+    /// infinite for an empty scene. Linear in the triangle count (instances whose box lies
+    /// farther than the nearest surface found are skipped): meant for a handful of points.
     pub fn surface_distance_m(&self, p: Vec3) -> f32 {
         let mesh = &self.scene.mesh;
         let triangles = (0..mesh.triangle_count()).map(|t| triangle_distance(p, mesh.corners(t)));
         let spheres = self.scene.spheres.iter().map(|s| ((p - s.center).length() - s.radius_m).abs());
-        triangles.chain(spheres).fold(f32::INFINITY, f32::min)
+        let mut best = triangles.chain(spheres).fold(f32::INFINITY, f32::min);
+        // Instances whose box comes nearer than the best so far, triangle by triangle.
+        let inst = &self.scene.instances;
+        for i in &inst.list {
+            let m = &inst.meshes[i.mesh as usize];
+            let Some((lo, hi)) = m.bounds() else { continue };
+            let (wlo, whi) = transformed_box(&i.object_to_world, lo, hi);
+            if (p - p.clamp(wlo, whi)).length() >= best {
+                continue;
+            }
+            for t in 0..m.triangle_count() {
+                let corners = m.corners(t).map(|c| i.object_to_world.transform_point3(c));
+                best = best.min(triangle_distance(p, corners));
+            }
+        }
+        best
     }
 
     /// Errors when `p` (a `what`, e.g. `source "S1"`) is closer than
