@@ -297,3 +297,20 @@ fn bad_instances_are_one_line_errors_naming_the_file_and_the_instance() {
     );
     assert_clean_error(&["info", &scene], &[&scene, "instance \"L\"", "emits light"]);
 }
+
+#[test]
+fn the_shipped_instanced_rooms_load_with_their_closed_form_volumes() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let hall = world(&format!("{root}/rooms/auditorium/scene.toml"));
+    let r = &hall.report;
+    assert_eq!((r.instances, r.triangles, r.unique_triangles), (192, 12 + 192 * 20, 32));
+    assert!(r.is_closed() && r.is_consistently_oriented());
+    // 24 x 18 x 9 m minus 192 L-shaped seats of 0.5 x (0.5 x 0.45 + 0.1 x 0.45) m^3.
+    let air = 24.0 * 18.0 * 9.0 - 192.0 * 0.5 * (0.5 * 0.45 + 0.1 * 0.45);
+    assert!((r.air_volume_m3.unwrap() - air).abs() < 1e-3, "{:?}", r.air_volume_m3);
+    assert!(hall.check_acoustic_points().is_ok());
+    let city = world(&format!("{root}/rooms/city_block/scene.toml"));
+    assert_eq!(city.accel.instances.len(), 48);
+    assert_eq!(city.accel.instances.mesh_count(), 1);
+    assert!(city.scene.surfaces.iter().any(|s| s.name == "concrete as brick"));
+}

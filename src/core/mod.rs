@@ -17,6 +17,7 @@ pub mod queries;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
+pub mod shapes;
 pub mod share;
 pub mod spectrum;
 pub mod specular;
