@@ -314,3 +314,37 @@ fn the_shipped_instanced_rooms_load_with_their_closed_form_volumes() {
     assert_eq!(city.accel.instances.mesh_count(), 1);
     assert!(city.scene.surfaces.iter().any(|s| s.name == "concrete as brick"));
 }
+
+#[test]
+fn shapes_in_a_scene_file_are_hit_at_their_closed_forms() {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "room.obj", BOX_OBJ);
+    let scene = write(
+        dir.path(),
+        "scene.toml",
+        "obj = \"room.obj\"\n\
+         [[shapes]]\nkind = \"sphere\"\nmaterial = \"concrete\"\nscale = [1.0, 0.5, 0.25]\ntranslate = [2, 1.5, 1]\n\
+         [[shapes]]\nkind = \"box\"\nmaterial = \"wood\"\nscale = [0.5, 0.5, 0.5]\ntranslate = [3, 2, 0.25]\n",
+    );
+    let w = world(&scene);
+    assert_eq!(w.accel.shapes.shapes.len(), 2);
+    // Along +y through the ellipsoid's centre: it is met at y = 1.5 - 0.5.
+    let h = w.accel.closest_hit(&Ray::new(Vec3::new(2.0, 0.1, 1.0), Vec3::Y)).unwrap();
+    assert!((h.t - 0.9).abs() < 1e-5 && h.kind == PrimitiveKind::Shape, "{h:?}");
+    assert!((h.normal + Vec3::Y).length() < 1e-5);
+    assert!(w.accel.occluded(&Ray::segment(Vec3::new(2.0, 0.1, 1.0), Vec3::Y, 1.0)));
+    // Down onto the box's top at z = 0.5.
+    let h = w.accel.closest_hit(&Ray::new(Vec3::new(3.1, 2.1, 2.0), -Vec3::Z)).unwrap();
+    assert!((h.t - 1.5).abs() < 1e-5 && (h.normal - Vec3::Z).length() < 1e-5);
+    let (ok, out, err) = propsim(&["info", &scene, "--json"]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&out).unwrap();
+    let cube = v["surfaces"].as_array().unwrap().iter().find(|s| s["name"] == "shape:wood").unwrap();
+    assert!((cube["area_m2"].as_f64().unwrap() - 1.5).abs() < 1e-5, "{cube}");
+    let bad = write(
+        dir.path(),
+        "bad.toml",
+        "obj = \"room.obj\"\n[[shapes]]\nkind = \"torus\"\nmaterial = \"wood\"\n",
+    );
+    assert_clean_error(&["info", &bad], &[&bad, "shape #1", "unknown kind \"torus\""]);
+}

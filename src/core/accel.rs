@@ -592,6 +592,8 @@ pub struct Accel {
     pub spheres: SphereSet,
     /// The instances (empty for most scenes).
     pub instances: InstanceSet,
+    /// Transformed analytic shapes (empty for most scenes).
+    pub shapes: super::shapes::ShapeSet,
     /// True when there are neither spheres nor instances: the queries stop at the mesh.
     mesh_only: bool,
     /// Corners of a box holding every triangle and sphere (empty: lower above upper).
@@ -610,6 +612,7 @@ impl Accel {
             mesh: MeshBvh::build(mesh, quality),
             spheres: SphereSet::new(spheres),
             instances: InstanceSet::default(),
+            shapes: super::shapes::ShapeSet::default(),
             mesh_only,
             bounds,
         }
@@ -621,6 +624,17 @@ impl Accel {
         self.bounds = (self.bounds.0.min(lo), self.bounds.1.max(hi));
         self.mesh_only &= instances.is_empty();
         self.instances = instances;
+        self
+    }
+
+    /// This structure with `shapes` added (their bounds join the scene's).
+    pub fn with_shapes(mut self, shapes: super::shapes::ShapeSet) -> Self {
+        for (s, _) in &shapes.shapes {
+            let (lo, hi) = s.bounds();
+            self.bounds = (self.bounds.0.min(lo), self.bounds.1.max(hi));
+        }
+        self.mesh_only &= shapes.is_empty();
+        self.shapes = shapes;
         self
     }
 
@@ -672,9 +686,30 @@ impl Accel {
         if !self.instances.is_empty()
             && let Some(h) = self.instances.closest_hit(&r)
         {
+            r.t_max = h.t;
+            best = Some(h);
+        }
+        if !self.shapes.is_empty()
+            && let Some(h) = self.shapes_hit(&r)
+        {
             best = Some(h);
         }
         best
+    }
+
+    /// The closest shape hit as a [`Hit`].
+    #[inline(never)]
+    pub fn shapes_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.shapes.closest(ray).map(|(i, t, normal)| Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            barycentric: Vec2::ZERO,
+            primitive: i as u32,
+            kind: PrimitiveKind::Shape,
+            surface: self.shapes.shapes[i].1,
+            front_face: normal.dot(ray.dir) < 0.0,
+        })
     }
 
     /// True when anything blocks the segment `(t_min, t_max]`: the cheap shadow-ray query.
@@ -682,7 +717,8 @@ impl Accel {
         self.mesh.occluded(ray)
             || !self.mesh_only
                 && (!self.spheres.is_empty() && self.spheres.occluded(ray)
-                    || !self.instances.is_empty() && self.instances.occluded(ray))
+                    || !self.instances.is_empty() && self.instances.occluded(ray)
+                    || !self.shapes.is_empty() && self.shapes.occluded(ray))
     }
 
     /// Calls `f` for every triangle hit on the ray, the mesh's and the instances', in no

@@ -12,6 +12,8 @@ pub enum PrimitiveKind {
     Triangle,
     /// An analytic sphere.
     Sphere,
+    /// A transformed analytic shape (`Hit::primitive` indexes the scene's shapes).
+    Shape,
     /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles).
     Instance {
         /// Index of the instance in the scene's instance list.

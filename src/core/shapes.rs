@@ -297,6 +297,60 @@ impl Shape {
     }
 }
 
+/// The placed shapes of a scene, each with its surface; tested one after the other behind a
+/// box test (scenes hold a handful).
+#[derive(Default)]
+pub struct ShapeSet {
+    /// The shapes and their surfaces.
+    pub shapes: Vec<(Shape, super::hit::SurfaceId)>,
+    /// World box of each shape.
+    boxes: Vec<(Vec3, Vec3)>,
+}
+
+impl ShapeSet {
+    /// A set of `shapes`.
+    pub fn new(shapes: Vec<(Shape, super::hit::SurfaceId)>) -> Self {
+        let boxes = shapes.iter().map(|(s, _)| s.bounds()).collect();
+        Self { shapes, boxes }
+    }
+
+    /// Whether there is no shape.
+    #[inline(always)]
+    pub fn is_empty(&self) -> bool {
+        self.shapes.is_empty()
+    }
+
+    /// Indices of the shapes whose box the segment may cross (slab test, padded).
+    fn candidates<'a>(&'a self, ray: &'a Ray) -> impl Iterator<Item = usize> + 'a {
+        let inv = ray.dir.recip();
+        self.boxes.iter().enumerate().filter_map(move |(i, (lo, hi))| {
+            let pad = 1e-4 * (1.0 + lo.abs().max(hi.abs()).max_element());
+            let (a, b) = ((*lo - pad - ray.origin) * inv, (*hi + pad - ray.origin) * inv);
+            let (near, far) = (a.min(b).max_element(), a.max(b).min_element());
+            // NaN (a zero direction component on a slab plane) keeps the shape.
+            (!(near > far || far < ray.t_min || near > ray.t_max)).then_some(i)
+        })
+    }
+
+    /// The closest shape hit: (index, distance, unit outward normal).
+    pub fn closest(&self, ray: &Ray) -> Option<(usize, f32, Vec3)> {
+        let mut r = *ray;
+        let mut best = None;
+        for i in self.candidates(ray) {
+            if let Some((t, n)) = self.shapes[i].0.intersect(&r) {
+                r.t_max = t;
+                best = Some((i, t, n));
+            }
+        }
+        best
+    }
+
+    /// Whether any shape blocks the segment.
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        self.candidates(ray).any(|i| self.shapes[i].0.intersect(ray).is_some())
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use glam::{Quat, Vec2};

@@ -38,6 +38,7 @@ pub fn applies(scene: &RenderScene, settings: &RenderSettings) -> bool {
         && settings.clamp_indirect.is_none()
         && scene.accel.spheres.is_empty()
         && scene.accel.instances.is_empty()
+        && scene.accel.shapes.is_empty()
         && scene.surfaces.iter().all(|o| matches!(o.bsdf, Bsdf::Lambert { .. }))
         && scene.lights.lights.iter().all(|l| matches!(l, Light::Triangle { .. }))
 }

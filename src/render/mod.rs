@@ -325,7 +325,8 @@ impl<'a> RenderScene<'a> {
                 front_face: normal.dot(ray.dir) < 0.0,
             }
         });
-        if !self.accel.spheres.is_empty() || !self.accel.instances.is_empty() {
+        if !self.accel.spheres.is_empty() || !self.accel.instances.is_empty() || !self.accel.shapes.is_empty()
+        {
             let mut r = *ray;
             if let Some(h) = &best {
                 r.t_max = h.t;
@@ -335,6 +336,12 @@ impl<'a> RenderScene<'a> {
                 best = Some(h);
             }
             if let Some(h) = self.accel.instances.closest_hit(&r) {
+                r.t_max = h.t;
+                best = Some(h);
+            }
+            if !self.accel.shapes.is_empty()
+                && let Some(h) = self.accel.shapes_hit(&r)
+            {
                 best = Some(h);
             }
         }
@@ -353,8 +360,8 @@ impl<'a> RenderScene<'a> {
         match hit.kind {
             PrimitiveKind::Triangle => self.lights.of_triangle(hit.primitive),
             PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
-            // Instanced surfaces are never lights (as in pbrt-v4): the loader refuses them.
-            PrimitiveKind::Instance { .. } => None,
+            // Instanced surfaces and shapes are never lights: the loader refuses them.
+            PrimitiveKind::Instance { .. } | PrimitiveKind::Shape => None,
         }
     }
 

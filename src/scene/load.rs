@@ -40,6 +40,8 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     /// Placed copies of meshes (`[[instances]]`); their surfaces are among `surfaces`.
     pub instances: SceneInstances,
+    /// Transformed analytic shapes (`[[shapes]]`) and their surfaces.
+    pub shapes: Vec<(crate::core::shapes::Shape, u32)>,
     /// The scene description.
     pub desc: SceneDesc,
     /// The materials.
@@ -53,6 +55,7 @@ impl Scene {
     pub fn used_surfaces(&self) -> std::collections::BTreeSet<u32> {
         let mut used: std::collections::BTreeSet<u32> =
             self.mesh.surface_of_triangle.iter().copied().collect();
+        used.extend(self.shapes.iter().map(|(_, s)| *s));
         for i in &self.instances.list {
             let local: std::collections::BTreeSet<u32> =
                 self.instances.meshes[i.mesh as usize].surface_of_triangle.iter().copied().collect();
@@ -306,6 +309,8 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         &mut warnings,
     )?;
 
+    let shapes = super::shapes::load_shapes(path, &desc.shapes, &library, &mut mesh, &mut surfaces)?;
+
     // Positions given in the description must be finite.
     if let Some(c) = &desc.camera {
         check_point(path, "camera eye", c.eye)?;
@@ -339,6 +344,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         surfaces,
         spheres,
         instances,
+        shapes,
         desc,
         library,
         warnings,

@@ -11,6 +11,7 @@ pub mod materials;
 pub mod obj;
 pub mod placement;
 pub mod report;
+pub mod shapes;
 pub mod world;
 
 pub use check::{MeshReport, analyze};

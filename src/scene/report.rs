@@ -105,6 +105,11 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
                     .iter()
                     .filter(|sp| sp.surface as usize == i)
                     .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
+                    .sum::<f64>()
+                + s.shapes
+                    .iter()
+                    .filter(|(_, id)| *id as usize == i)
+                    .filter_map(|(sh, _)| sh.area_m2())
                     .sum::<f64>(),
             acoustic: surf.material.as_ref().is_some_and(|m| m.acoustic.is_some()),
             radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| r.to_string()),
@@ -144,7 +149,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
             .spheres
             .iter()
             .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
-            .sum(),
+            .sum::<f64>()
+            + s.shapes.iter().filter_map(|(sh, _)| sh.area_m2()).sum::<f64>(),
         surfaces,
         closed: r.is_closed(),
         open_edges: r.open_edges,
@@ -193,7 +199,7 @@ pub fn format_report(r: &InfoReport) -> String {
     if r.sphere_area_m2 > 0.0 {
         let _ = writeln!(
             o,
-            "area:       {:.3} m^2 of mesh, {:.3} m^2 of spheres",
+            "area:       {:.3} m^2 of mesh, {:.3} m^2 of spheres and shapes",
             r.total_area_m2, r.sphere_area_m2
         );
     } else {

@@ -6,6 +6,7 @@ use super::check::{MeshReport, add_instances, analyze};
 use super::error::SceneError;
 use super::load::Scene;
 use crate::core::accel::instances::transformed_box;
+use crate::core::shapes::ShapeSet;
 use crate::core::{Accel, BuildQuality, InstanceSet, PrimitiveKind, accel::point_enclosed};
 
 /// Closest a sound source or receiver, or a radio transmitter, may be to a surface, metres:
@@ -75,7 +76,8 @@ impl World {
         let quality = BuildQuality::default();
         let i = &scene.instances;
         let accel = Accel::build(&scene.mesh, scene.spheres.clone(), quality)
-            .with_instances(InstanceSet::build(&i.meshes, &i.list, quality));
+            .with_instances(InstanceSet::build(&i.meshes, &i.list, quality))
+            .with_shapes(ShapeSet::new(scene.shapes.clone()));
         let instance_reports: Vec<MeshReport> = i.meshes.iter().map(analyze).collect();
         let report = add_instances(analyze(&scene.mesh), &i.meshes, &instance_reports, &i.list);
         Self { scene, accel, report, instance_reports }
@@ -97,7 +99,7 @@ impl World {
                 let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
                 c.closed && !c.planar
             }
-            PrimitiveKind::Sphere => false,
+            PrimitiveKind::Sphere | PrimitiveKind::Shape => false,
         }))
     }
 
