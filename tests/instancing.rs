@@ -182,7 +182,7 @@ fn every_query_sees_the_instances_as_the_flattened_mesh() {
         if (a.t - b.t).abs() < 1e-6 * (1.0 + b.t) || a.normal.dot(b.normal) > 0.99 {
             assert!(a.normal.dot(b.normal) > 0.999 || (a.t - b.t).abs() < 1e-5, "ray {k}");
         }
-        if matches!(a.kind, PrimitiveKind::Instance { .. }) {
+        if a.kind == PrimitiveKind::Instance {
             on_seats += 1;
             assert_eq!(a.surface, wood_inst);
             assert_eq!(a.front_face, b.front_face, "ray {k}");

@@ -713,19 +713,24 @@ impl Accel {
     }
 
     /// True when anything blocks the segment `(t_min, t_max]`: the cheap shadow-ray query.
+    #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.mesh.occluded(ray)
-            || !self.mesh_only
-                && (!self.spheres.is_empty() && self.spheres.occluded(ray)
-                    || !self.instances.is_empty() && self.instances.occluded(ray)
-                    || !self.shapes.is_empty() && self.shapes.occluded(ray))
+        self.mesh.occluded(ray) || !self.mesh_only && self.occluded_beyond_mesh(ray)
+    }
+
+    /// Whether a sphere, an instance or a shape blocks the segment.
+    #[inline(never)]
+    fn occluded_beyond_mesh(&self, ray: &Ray) -> bool {
+        !self.spheres.is_empty() && self.spheres.occluded(ray)
+            || !self.instances.is_empty() && self.instances.occluded(ray)
+            || !self.shapes.is_empty() && self.shapes.occluded(ray)
     }
 
     /// Calls `f` for every triangle hit on the ray, the mesh's and the instances', in no
-    /// particular order (spheres are not included).
+    /// particular order (spheres and shapes are not included).
     pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
         self.mesh.for_each_hit(ray, &mut f);
-        self.instances.for_each_hit(ray, f);
+        self.instances.for_each_hit(ray, |_, h| f(h));
     }
 
     /// [`Accel::closest_hit`] of every ray into `out`, on this thread: the mesh's batch query
@@ -785,17 +790,23 @@ const PARITY_DIRECTIONS: [[f32; 3]; 5] = [
     [0.05, 0.2, -0.9785],
 ];
 
-/// Whether `p` is enclosed by the triangles for which `counts(hit)` holds (the mesh's and
-/// the instances'), by the parity of crossings along five fixed directions and a majority
+/// Whether `p` is enclosed by the triangles for which `counts(instance, hit)` holds (the
+/// mesh's, `instance` `None`, and the instances'), by the parity of crossings along five fixed directions and a majority
 /// vote. Hits at the same distance (a ray through a shared edge meets both triangles) count
 /// once.
-pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(&Hit) -> bool) -> bool {
+pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(Option<u32>, &Hit) -> bool) -> bool {
     let votes = PARITY_DIRECTIONS
         .iter()
         .filter(|d| {
             let mut ts: Vec<f32> = Vec::new();
-            accel.for_each_hit(&Ray::new(p, Vec3::from(**d).normalize()), |h| {
-                if counts(&h) {
+            let ray = Ray::new(p, Vec3::from(**d).normalize());
+            accel.mesh.for_each_hit(&ray, |h| {
+                if counts(None, &h) {
+                    ts.push(h.t);
+                }
+            });
+            accel.instances.for_each_hit(&ray, |i, h| {
+                if counts(Some(i), &h) {
                     ts.push(h.t);
                 }
             });

@@ -14,11 +14,10 @@ pub enum PrimitiveKind {
     Sphere,
     /// A transformed analytic shape (`Hit::primitive` indexes the scene's shapes).
     Shape,
-    /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles).
-    Instance {
-        /// Index of the instance in the scene's instance list.
-        instance: u32,
-    },
+    /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles;
+    /// `InstanceSet::closest_hit_placed` also gives the instance). The variant carries no
+    /// index so that a `Hit` stays 48 bytes: the launcher keeps one per ray in flight.
+    Instance,
 }
 
 /// A ray-surface intersection.
@@ -49,5 +48,14 @@ impl Hit {
     #[inline]
     pub fn facing_normal(&self) -> Vec3 {
         if self.front_face { self.normal } else { -self.normal }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_hit_stays_48_bytes() {
+        // The launcher keeps one `Option<Hit>` per ray in flight; instancing must not grow it.
+        assert_eq!(std::mem::size_of::<Option<super::Hit>>(), 48);
     }
 }

@@ -361,7 +361,7 @@ impl<'a> RenderScene<'a> {
             PrimitiveKind::Triangle => self.lights.of_triangle(hit.primitive),
             PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
             // Instanced surfaces and shapes are never lights: the loader refuses them.
-            PrimitiveKind::Instance { .. } | PrimitiveKind::Shape => None,
+            PrimitiveKind::Instance | PrimitiveKind::Shape => None,
         }
     }
 

@@ -89,17 +89,16 @@ impl World {
     pub fn is_inside(&self, p: Vec3) -> Option<bool> {
         self.report.air_volume_m3?;
         let r = &self.report;
-        Some(point_enclosed(&self.accel, p, |h| match h.kind {
-            PrimitiveKind::Triangle => {
-                let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
-                c.closed && !c.planar
-            }
-            PrimitiveKind::Instance { instance } => {
-                let r = &self.instance_reports[self.scene.instances.list[instance as usize].mesh as usize];
-                let c = &r.components[r.component_of_triangle[h.primitive as usize] as usize];
-                c.closed && !c.planar
-            }
-            PrimitiveKind::Sphere | PrimitiveKind::Shape => false,
+        Some(point_enclosed(&self.accel, p, |instance, h| {
+            let (r, t) = match (h.kind, instance) {
+                (PrimitiveKind::Triangle, None) => (r, h.primitive),
+                (PrimitiveKind::Instance, Some(i)) => {
+                    (&self.instance_reports[self.accel.instances.mesh_of(i) as usize], h.primitive)
+                }
+                _ => return false,
+            };
+            let c = &r.components[r.component_of_triangle[t as usize] as usize];
+            c.closed && !c.planar
         }))
     }
 

@@ -185,7 +185,7 @@ impl InstanceSet {
             normal,
             barycentric: h.barycentric,
             primitive: h.primitive,
-            kind: PrimitiveKind::Instance { instance: index },
+            kind: PrimitiveKind::Instance,
             surface: p.surfaces.get(h.surface as usize).copied().unwrap_or(h.surface),
             front_face: normal.dot(ray.dir) < 0.0,
         }
@@ -193,10 +193,20 @@ impl InstanceSet {
 
     /// The closest hit on any instance in `(t_min, t_max]`.
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.closest_hit_placed(ray).map(|(_, h)| h)
+    }
+
+    /// [`InstanceSet::closest_hit`] with the index of the instance hit (Embree's `instID`).
+    pub fn closest_hit_placed(&self, ray: &Ray) -> Option<(u32, Hit)> {
         let (bvh, traverser) = self.top.as_ref()?;
         let mut visitor = ClosestInstance { set: self, order: &bvh.primitive_indices, ray, best: None };
         traverser.closest(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
-        visitor.best.map(|(i, c)| self.world_hit(i, &c, ray))
+        visitor.best.map(|(i, c)| (i, self.world_hit(i, &c, ray)))
+    }
+
+    /// The mesh (index into the build's mesh list) that instance `index` places.
+    pub fn mesh_of(&self, index: u32) -> u32 {
+        self.placed[index as usize].mesh
     }
 
     /// Whether any instance blocks the segment `(t_min, t_max]`.
@@ -206,8 +216,9 @@ impl InstanceSet {
         traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor)
     }
 
-    /// Calls `f` for every instance triangle hit on the ray, in no particular order.
-    pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(Hit)) {
+    /// Calls `f(instance, hit)` for every instance triangle hit on the ray, in no particular
+    /// order.
+    pub fn for_each_hit(&self, ray: &Ray, f: impl FnMut(u32, Hit)) {
         let Some((bvh, traverser)) = &self.top else { return };
         let mut visitor = AllInstanceHits { set: self, order: &bvh.primitive_indices, ray, f };
         traverser.any(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
@@ -280,13 +291,13 @@ struct AllInstanceHits<'a, F> {
     f: F,
 }
 
-impl<F: FnMut(Hit)> AnyLeaves for AllInstanceHits<'_, F> {
+impl<F: FnMut(u32, Hit)> AnyLeaves for AllInstanceHits<'_, F> {
     fn test(&mut self, first: u32, count: u32) -> bool {
         for &i in &self.order[first as usize..(first + count) as usize] {
             let p = &self.set.placed[i as usize];
             let local = p.to_object(self.ray, self.ray.t_max);
             let (set, ray, f) = (self.set, self.ray, &mut self.f);
-            set.meshes[p.mesh as usize].for_each_hit(&local, |h| f(set.to_world(i, h, ray)));
+            set.meshes[p.mesh as usize].for_each_hit(&local, |h| f(i, set.to_world(i, h, ray)));
         }
         false
     }
@@ -392,7 +403,7 @@ mod tests {
                 assert!((a.point - ray.at(a.t)).length() < 1e-5 * (1.0 + a.point.length()));
             }
             let (mut na, mut nb) = (0usize, 0usize);
-            set.for_each_hit(&ray, |_| na += 1);
+            set.for_each_hit(&ray, |_, _| na += 1);
             reference.for_each_hit(&ray, |_| nb += 1);
             assert!(na.abs_diff(nb) <= 1, "ray {k}: {na} vs {nb} hits");
         }
@@ -438,7 +449,7 @@ mod tests {
             assert!(h.normal.dot(ray.dir) < 0.0);
             assert!((h.normal.abs() - want.abs()).length() < 1e-5, "{} vs {want}", h.normal);
             assert_eq!(h.surface, 5);
-            assert_eq!(h.kind, PrimitiveKind::Instance { instance: 0 });
+            assert_eq!(h.kind, PrimitiveKind::Instance);
         }
     }
 
