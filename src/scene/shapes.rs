@@ -66,10 +66,8 @@ pub(crate) fn load_shapes(
                     return Err(bad("a quadric needs coefficients, clip_min and clip_max".into()));
                 };
                 let (lo, hi) = (Vec3::from(lo), Vec3::from(hi));
-                if !k.iter().all(|v| v.is_finite())
-                    || !(lo.is_finite() && hi.is_finite())
-                    || lo.cmpgt(hi).any()
-                {
+                let finite = k.iter().all(|v| v.is_finite()) && lo.is_finite() && hi.is_finite();
+                if !finite || lo.cmpgt(hi).any() {
                     return Err(bad("coefficients and clip box must be finite, clip_min <= clip_max".into()));
                 }
                 ShapeKind::Quadric {
