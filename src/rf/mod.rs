@@ -109,7 +109,7 @@ pub fn check(world: &World, config: &RfConfig) -> Result<(), String> {
 /// lies above or below the whole model, or its rectangle beside it. Both usually mean a model
 /// whose up axis is not z (Blender's OBJ export is Y-up) or whose unit is not the metre.
 pub fn grid_misses_model(world: &World, config: &RfConfig) -> Option<String> {
-    let (lo, hi) = world.scene.mesh.bounds()?;
+    let (lo, hi) = world.bounds()?;
     let g = &config.grid;
     let (x1, y1) = (g.min_m[0] + g.cell_m * g.nx as f64, g.min_m[1] + g.cell_m * g.ny as f64);
     let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());

@@ -71,6 +71,21 @@ impl World {
         })
     }
 
+    /// Corners of a box holding the scene's mesh, instances and shapes; `None` for a scene
+    /// without triangles.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut b = self.scene.mesh.bounds()?;
+        let (lo, hi) = self.accel.instances.bounds();
+        if lo.x <= hi.x {
+            b = (b.0.min(lo), b.1.max(hi));
+        }
+        for (s, _) in &self.accel.shapes.shapes {
+            let (lo, hi) = s.bounds();
+            b = (b.0.min(lo), b.1.max(hi));
+        }
+        Some(b)
+    }
+
     /// Builds the acceleration structure and the mesh report of `scene`.
     pub fn build(scene: Scene) -> Self {
         let quality = BuildQuality::default();
