@@ -321,4 +321,17 @@ catalogue! {
     rf_out_under_a_file: with_files(&["rf", "{shoebox}", "--rays", "100", "--out", "{dir}/f/rf"],
         &[File::Text("f", "")], &["f/rf"]);
     run_out_under_a_device: case(&["run", "{shoebox}", "--out", "/dev/null/out"], &["/dev/null/out"]);
+    // Instances (issue 24): singular and non-finite transforms, an unknown mesh, nesting.
+    instance_singular_scale: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[instances]]\nname = \"flat\"\nmesh = \"box.obj\"\nscale = [1, 1, 0]\n")],
+        &["{dir}/s.toml", "instance \"flat\"", "singular"]);
+    instance_matrix_not_finite: with_files(&["acoustic", "{dir}/s.toml", "--out", "{out}"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[instances]]\nmesh = \"box.obj\"\nmatrix = [[1, 0, 0, nan], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]\n")],
+        &["{dir}/s.toml", "instance #1", "non-finite"]);
+    instance_unknown_mesh: with_files(&["rf", "{dir}/s.toml", "--out", "{out}"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[instances]]\nname = \"car\"\nmesh = \"sedan\"\n")],
+        &["{dir}/s.toml", "instance \"car\"", "unknown mesh \"sedan\""]);
+    instance_nested_scene: with_files(&["info", "{dir}/s.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[instances]]\nname = \"me\"\nmesh = \"s.toml\"\n")],
+        &["{dir}/s.toml", "instance \"me\"", "do not nest"]);
 }

@@ -30,10 +30,96 @@ pub struct TraceArgs {
     /// build time against ray speed.
     #[arg(long, default_value = "medium", value_parser = ["fast", "medium", "high"])]
     pub quality: String,
+    /// Place this many copies of the mesh (or of the generated terrain) on a grid and trace
+    /// them twice on identical rays: as instances (two-level BVH) and flattened into one mesh
+    /// (when that fits in memory), to weigh instancing's cost.
+    #[arg(long)]
+    pub instances: Option<usize>,
     /// Write the generated mesh (OBJ) and ray sets (PREFIX_coherent.bin, PREFIX_incoherent.bin,
     /// PREFIX_hit-heavy.bin) so other tracers can be run on the same input.
     #[arg(long)]
     pub write_inputs: Option<PathBuf>,
+}
+
+/// `--instances N`: the same rays through `N` instances of `mesh` and through their
+/// flattened copy.
+fn run_instanced(args: &TraceArgs, mesh: &TriangleMesh, label: &str, n: usize) -> anyhow::Result<()> {
+    use crate::core::accel::instances::flatten;
+    use crate::core::{Accel, InstanceSet};
+    anyhow::ensure!((1..=10_000_000).contains(&n), "--instances {n}: must be between 1 and 10^7");
+    let (lo, hi) = mesh.bounds().unwrap_or_default();
+    let instances = grid_instances(n, lo, hi, 1);
+    let quality = match args.quality.as_str() {
+        "fast" => BuildQuality::Fast,
+        "high" => BuildQuality::High,
+        _ => BuildQuality::Medium,
+    };
+    let total = mesh.triangle_count() as u64 * n as u64;
+    crate::outln!(
+        "mesh:        {label}, {} triangles x {n} instances = {total} triangles",
+        mesh.triangle_count()
+    );
+    crate::outln!("threads:     {}", rayon::current_num_threads());
+    let t = std::time::Instant::now();
+    let set = InstanceSet::build(std::slice::from_ref(mesh), &instances, quality);
+    let (wlo, whi) = set.bounds();
+    let instanced = Accel::build(&TriangleMesh::default(), Vec::new(), quality).with_instances(set);
+    crate::outln!(
+        "instanced:   build {:.3} s, BVHs + triangles {:.1} MB",
+        t.elapsed().as_secs_f64(),
+        instanced.memory_bytes() as f64 / 1e6
+    );
+    let (coherent, incoherent) = scene_rays(args.ray_count, wlo, whi, 2);
+    let flat_bytes = total * BYTES_PER_TRIANGLE;
+    let flat = match crate::io::memory::check_fits("the flattened copy", flat_bytes) {
+        Ok(()) => {
+            let t = std::time::Instant::now();
+            let m = flatten(std::slice::from_ref(mesh), &instances);
+            let a = Accel::build(&m, Vec::new(), quality);
+            crate::outln!(
+                "flattened:   build {:.3} s, BVH + triangles {:.1} MB",
+                t.elapsed().as_secs_f64(),
+                a.memory_bytes() as f64 / 1e6
+            );
+            Some(a)
+        }
+        Err(e) => {
+            crate::outln!("flattened:   skipped ({e})");
+            None
+        }
+    };
+    crate::outln!("{FIGURE_LEGEND}");
+    for (name, rays) in [("coherent", &coherent), ("incoherent", &incoherent)] {
+        let i = trace_figures(&instanced, rays, args.repeat);
+        crate::outln!(
+            "{name:<12} {} rays: instanced render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}",
+            rays.len(),
+            i.render_mrays_s,
+            i.launcher_mrays_s,
+            i.occlusion_mrays_s,
+            i.hits,
+            i.occluded
+        );
+        if let Some(flat) = &flat {
+            let f = trace_figures(flat, rays, args.repeat);
+            crate::outln!(
+                "{name:<12} {} rays: flattened render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}; instanced/flattened {:.2} / {:.2} / {:.2}",
+                rays.len(),
+                f.render_mrays_s,
+                f.launcher_mrays_s,
+                f.occlusion_mrays_s,
+                f.hits,
+                f.occluded,
+                i.render_mrays_s / f.render_mrays_s,
+                i.launcher_mrays_s / f.launcher_mrays_s,
+                i.occlusion_mrays_s / f.occlusion_mrays_s
+            );
+        }
+    }
+    if let Some(mb) = peak_rss_mb() {
+        crate::outln!("peak memory: {mb:.0} MB resident");
+    }
+    Ok(())
 }
 
 fn write_obj(path: &Path, mesh: &TriangleMesh) -> anyhow::Result<()> {
@@ -123,6 +209,9 @@ pub fn run(args: &TraceArgs) -> anyhow::Result<()> {
             write_rays(&p, rays)?;
             crate::outln!("wrote {}", p.display());
         }
+    }
+    if let Some(n) = args.instances {
+        return run_instanced(args, &mesh, &label, n);
     }
     crate::outln!("mesh:        {label}, {} triangles", mesh.triangle_count());
     crate::outln!("threads:     {}", rayon::current_num_threads());

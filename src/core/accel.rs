@@ -2,9 +2,9 @@
 //! and a set of analytic spheres, with closest-hit, occlusion, all-hits and batch queries.
 //!
 //! Instancing: [`MeshBvh`] is self-contained in its own coordinate frame (triangles reordered
-//! to the BVH leaf order, with a map back to mesh indices). Placing one mesh many times needs
-//! only a top-level BVH over instance bounds whose leaves transform the ray into a
-//! `MeshBvh`'s frame (obvhs' `ray_traverse_tlas_blas`); `Accel` is the place that grows it.
+//! to the BVH leaf order, with a map back to mesh indices), so placed copies of a mesh share
+//! one: [`InstanceSet`] is a top-level BVH over instance bounds whose leaves transform the
+//! ray into a `MeshBvh`'s frame ([`instances`]).
 
 use std::time::Duration;
 
@@ -18,7 +18,10 @@ use obvhs::{Boundable, BvhBuildParams};
 use rayon::prelude::*;
 
 mod collapse;
+pub mod instances;
 mod ploc;
+
+pub use instances::{Instance, InstanceSet};
 
 use super::convex::{ConvexRoom, Exit};
 use super::flat::{FLAT_LIMIT, FlatRay, FlatTriangles};
@@ -580,12 +583,19 @@ impl SphereSet {
     }
 }
 
-/// Everything a simulator traces against: one triangle mesh and a set of opaque spheres.
+/// Everything a simulator traces against: one triangle mesh, a set of opaque spheres and
+/// placed copies of other meshes (instances).
 pub struct Accel {
     /// The triangle mesh's BVH.
     pub mesh: MeshBvh,
     /// The spheres.
     pub spheres: SphereSet,
+    /// The instances (empty for most scenes).
+    pub instances: InstanceSet,
+    /// Transformed analytic shapes (empty for most scenes).
+    pub shapes: super::shapes::ShapeSet,
+    /// True when there are neither spheres nor instances: the queries stop at the mesh.
+    mesh_only: bool,
     /// Corners of a box holding every triangle and sphere (empty: lower above upper).
     bounds: (Vec3, Vec3),
 }
@@ -597,7 +607,40 @@ impl Accel {
         let bounds = spheres
             .iter()
             .fold(mesh.bounds().unwrap_or(empty), |(lo, hi), s| (lo.min(s.aabb_min()), hi.max(s.aabb_max())));
-        Self { mesh: MeshBvh::build(mesh, quality), spheres: SphereSet::new(spheres), bounds }
+        let mesh_only = spheres.is_empty();
+        Self {
+            mesh: MeshBvh::build(mesh, quality),
+            spheres: SphereSet::new(spheres),
+            instances: InstanceSet::default(),
+            shapes: super::shapes::ShapeSet::default(),
+            mesh_only,
+            bounds,
+        }
+    }
+
+    /// This structure with `instances` added (their bounds join the scene's).
+    pub fn with_instances(mut self, instances: InstanceSet) -> Self {
+        let (lo, hi) = instances.bounds();
+        self.bounds = (self.bounds.0.min(lo), self.bounds.1.max(hi));
+        self.mesh_only &= instances.is_empty();
+        self.instances = instances;
+        self
+    }
+
+    /// This structure with `shapes` added (their bounds join the scene's).
+    pub fn with_shapes(mut self, shapes: super::shapes::ShapeSet) -> Self {
+        for (s, _) in &shapes.shapes {
+            let (lo, hi) = s.bounds();
+            self.bounds = (self.bounds.0.min(lo), self.bounds.1.max(hi));
+        }
+        self.mesh_only &= shapes.is_empty();
+        self.shapes = shapes;
+        self
+    }
+
+    /// Bytes held by the mesh's BVH and the instances.
+    pub fn memory_bytes(&self) -> usize {
+        self.mesh.memory_bytes() + self.instances.memory_bytes()
     }
 
     /// True when `ray` cannot meet anything: its origin is on or beyond a face of the box
@@ -621,19 +664,73 @@ impl Accel {
     #[inline(always)]
     pub fn closest_hit(&self, ray: &Ray) -> Option<Hit> {
         let tri = self.mesh.closest_hit(ray);
-        if self.spheres.is_empty() {
+        if self.mesh_only {
             return tri;
         }
+        self.closest_beyond_mesh(ray, tri)
+    }
+
+    /// The closest of `best` (the mesh's hit) and the spheres' and instances' hits.
+    #[inline(never)]
+    fn closest_beyond_mesh(&self, ray: &Ray, mut best: Option<Hit>) -> Option<Hit> {
         let mut r = *ray;
-        if let Some(h) = &tri {
+        if let Some(h) = &best {
             r.t_max = h.t;
         }
-        self.spheres.closest_hit(&r).or(tri)
+        if !self.spheres.is_empty()
+            && let Some(h) = self.spheres.closest_hit(&r)
+        {
+            r.t_max = h.t;
+            best = Some(h);
+        }
+        if !self.instances.is_empty()
+            && let Some(h) = self.instances.closest_hit(&r)
+        {
+            r.t_max = h.t;
+            best = Some(h);
+        }
+        if !self.shapes.is_empty()
+            && let Some(h) = self.shapes_hit(&r)
+        {
+            best = Some(h);
+        }
+        best
+    }
+
+    /// The closest shape hit as a [`Hit`].
+    #[inline(never)]
+    pub fn shapes_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.shapes.closest(ray).map(|(i, t, normal)| Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            barycentric: Vec2::ZERO,
+            primitive: i as u32,
+            kind: PrimitiveKind::Shape,
+            surface: self.shapes.shapes[i].1,
+            front_face: normal.dot(ray.dir) < 0.0,
+        })
     }
 
     /// True when anything blocks the segment `(t_min, t_max]`: the cheap shadow-ray query.
+    #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.mesh.occluded(ray) || !self.spheres.is_empty() && self.spheres.occluded(ray)
+        self.mesh.occluded(ray) || !self.mesh_only && self.occluded_beyond_mesh(ray)
+    }
+
+    /// Whether a sphere, an instance or a shape blocks the segment.
+    #[inline(never)]
+    fn occluded_beyond_mesh(&self, ray: &Ray) -> bool {
+        !self.spheres.is_empty() && self.spheres.occluded(ray)
+            || !self.instances.is_empty() && self.instances.occluded(ray)
+            || !self.shapes.is_empty() && self.shapes.occluded(ray)
+    }
+
+    /// Calls `f` for every triangle hit on the ray, the mesh's and the instances', in no
+    /// particular order (spheres and shapes are not included).
+    pub fn for_each_hit(&self, ray: &Ray, mut f: impl FnMut(Hit)) {
+        self.mesh.for_each_hit(ray, &mut f);
+        self.instances.for_each_hit(ray, |_, h| f(h));
     }
 
     /// [`Accel::closest_hit`] of every ray into `out`, on this thread: the mesh's batch query
@@ -642,17 +739,11 @@ impl Accel {
     /// of rays bounce by bounce through this.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         self.mesh.closest_hits_into(rays, out);
-        if self.spheres.is_empty() {
+        if self.mesh_only {
             return;
         }
         for (hit, ray) in out.iter_mut().zip(rays) {
-            let mut r = *ray;
-            if let Some(h) = &*hit {
-                r.t_max = h.t;
-            }
-            if let Some(s) = self.spheres.closest_hit(&r) {
-                *hit = Some(s);
-            }
+            *hit = self.closest_beyond_mesh(ray, *hit);
         }
     }
 }
@@ -699,16 +790,23 @@ const PARITY_DIRECTIONS: [[f32; 3]; 5] = [
     [0.05, 0.2, -0.9785],
 ];
 
-/// Whether `p` is enclosed by the triangles for which `counts(mesh_index)` holds, by the
-/// parity of crossings along five fixed directions and a majority vote. Hits at the same
-/// distance (a ray through a shared edge meets both triangles) count once.
-pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(u32) -> bool) -> bool {
+/// Whether `p` is enclosed by the triangles for which `counts(instance, hit)` holds (the
+/// mesh's, `instance` `None`, and the instances'), by the parity of crossings along five fixed directions and a majority
+/// vote. Hits at the same distance (a ray through a shared edge meets both triangles) count
+/// once.
+pub fn point_enclosed(accel: &Accel, p: Vec3, counts: impl Fn(Option<u32>, &Hit) -> bool) -> bool {
     let votes = PARITY_DIRECTIONS
         .iter()
         .filter(|d| {
             let mut ts: Vec<f32> = Vec::new();
-            accel.mesh.for_each_hit(&Ray::new(p, Vec3::from(**d).normalize()), |h| {
-                if counts(h.primitive) {
+            let ray = Ray::new(p, Vec3::from(**d).normalize());
+            accel.mesh.for_each_hit(&ray, |h| {
+                if counts(None, &h) {
+                    ts.push(h.t);
+                }
+            });
+            accel.instances.for_each_hit(&ray, |i, h| {
+                if counts(Some(i), &h) {
                     ts.push(h.t);
                 }
             });

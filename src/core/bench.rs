@@ -160,6 +160,60 @@ pub fn timed_builds(mesh: &TriangleMesh, count: usize, quality: BuildQuality) ->
     (accel, builds)
 }
 
+/// `count` placements of a mesh whose box is `lo..hi` on a square grid in the xy plane, the
+/// cells 1.25 times the mesh's larger horizontal side, each copy turned about z by a random
+/// angle and scaled by 0.8-1.2 (seeded): the instanced workload of `propsim bench trace
+/// --instances` (a forest of one tree, a car park of one car).
+pub fn grid_instances(count: usize, lo: Vec3, hi: Vec3, seed: u64) -> Vec<super::Instance> {
+    let side = (count as f64).sqrt().ceil() as usize;
+    let size = hi - lo;
+    let cell = 1.25 * size.x.max(size.y).max(1e-3);
+    let centre = 0.5 * (lo + hi);
+    (0..count)
+        .map(|k| {
+            let mut r = stream(seed, 0x1257, k as u64);
+            let (i, j) = ((k % side) as f32, (k / side) as f32);
+            let at = Vec3::new(i * cell, j * cell, 0.0);
+            let turn = glam::Quat::from_rotation_z(uniform(&mut r) * std::f32::consts::TAU);
+            let scale = 0.8 + 0.4 * uniform(&mut r);
+            let object_to_world = glam::Affine3A::from_translation(at)
+                * glam::Affine3A::from_scale_rotation_translation(Vec3::splat(scale), turn, Vec3::ZERO)
+                * glam::Affine3A::from_translation(-Vec3::new(centre.x, centre.y, lo.z));
+            super::Instance { mesh: 0, object_to_world, surfaces: vec![] }
+        })
+        .collect()
+}
+
+/// Rays over a scene whose box is `lo..hi`: half from random points inside the box in random
+/// directions (incoherent), half camera rays from above a corner towards the centre
+/// (coherent, 60 degrees wide).
+pub fn scene_rays(count: usize, lo: Vec3, hi: Vec3, seed: u64) -> (Vec<Ray>, Vec<Ray>) {
+    let size = hi - lo;
+    let incoherent = (0..count)
+        .map(|k| {
+            let mut r = stream(seed, 0x5ce7, k as u64);
+            let o = lo + size * Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r));
+            Ray::new(o, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r))))
+        })
+        .collect();
+    let eye =
+        lo + Vec3::new(-0.1 * size.x, -0.1 * size.y, 0.0) + Vec3::new(0.0, 0.0, hi.z - lo.z + 0.1 * size.x);
+    let forward = (0.5 * (lo + hi) - eye).normalize();
+    let right = forward.cross(Vec3::Z).normalize();
+    let up = right.cross(forward);
+    let side = (count as f64).sqrt().ceil() as usize;
+    let half = 30f32.to_radians().tan();
+    let coherent = (0..count)
+        .map(|k| {
+            let (i, j) = (k % side, k / side);
+            let u = ((i as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            let v = ((j as f32 + 0.5) / side as f32 * 2.0 - 1.0) * half;
+            Ray::new(eye, (forward + u * right + v * up).normalize())
+        })
+        .collect();
+    (coherent, incoherent)
+}
+
 /// Result of tracing one ray set through the queries the products make, each timed alone.
 pub struct TraceFigures {
     /// `propsim render`'s rays (camera rays, path bounces): one closest-hit query a ray
@@ -193,7 +247,11 @@ pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures
     let mut launched: Vec<Option<Hit>> = vec![None; rays.len()];
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
-        let tri: Vec<Option<(u32, f32)>> = rays.par_iter().map(|r| accel.mesh.closest_triangle(r)).collect();
+        let tri: Vec<Option<(u32, f32)>> = if accel.instances.is_empty() {
+            rays.par_iter().map(|r| accel.mesh.closest_triangle(r)).collect()
+        } else {
+            rays.par_iter().map(|r| accel.closest_hit(r).map(|h| (h.primitive, h.t))).collect()
+        };
         render_s.push(t.elapsed().as_secs_f64());
         checksum = tri.iter().fold(0u64, |acc, h| acc.wrapping_add(h.map_or(0, |(i, _)| u64::from(i) + 1)));
         hits = tri.iter().filter(|h| h.is_some()).count();

@@ -12,6 +12,12 @@ pub enum PrimitiveKind {
     Triangle,
     /// An analytic sphere.
     Sphere,
+    /// A transformed analytic shape (`Hit::primitive` indexes the scene's shapes).
+    Shape,
+    /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles;
+    /// `InstanceSet::closest_hit_placed` also gives the instance). The variant carries no
+    /// index so that a `Hit` stays 48 bytes: the launcher keeps one per ray in flight.
+    Instance,
 }
 
 /// A ray-surface intersection.
@@ -26,7 +32,8 @@ pub struct Hit {
     /// Barycentric coordinates (u, v) of the hit: `p = (1-u-v) v0 + u v1 + v v2`.
     /// For spheres: (azimuth/2pi, polar/pi) of the hit direction from the centre.
     pub barycentric: Vec2,
-    /// Index of the primitive in its list (the mesh's triangles, or the spheres).
+    /// Index of the primitive in its list (the mesh's triangles, the spheres, or an
+    /// instance's mesh's triangles).
     pub primitive: u32,
     /// Triangle or sphere.
     pub kind: PrimitiveKind,
@@ -41,5 +48,14 @@ impl Hit {
     #[inline]
     pub fn facing_normal(&self) -> Vec3 {
         if self.front_face { self.normal } else { -self.normal }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn a_hit_stays_48_bytes() {
+        // The launcher keeps one `Option<Hit>` per ray in flight; instancing must not grow it.
+        assert_eq!(std::mem::size_of::<Option<super::Hit>>(), 48);
     }
 }

@@ -18,6 +18,7 @@ pub mod queries;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
+pub mod shapes;
 pub mod share;
 pub mod spectrum;
 pub mod specular;
@@ -30,7 +31,7 @@ pub mod utd;
 pub mod visibility;
 pub mod wedges;
 
-pub use accel::{Accel, BuildQuality, MeshBvh, SphereSet};
+pub use accel::{Accel, BuildQuality, Instance, InstanceSet, MeshBvh, SphereSet};
 pub use hit::{Hit, PrimitiveKind, SurfaceId};
 pub use mesh::TriangleMesh;
 pub use ray::Ray;

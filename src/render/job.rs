@@ -30,7 +30,7 @@ pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow
     let pixels = u64::from(s.width) * u64::from(s.height);
     crate::io::memory::check_fits(
         &format!("a {}x{} render", s.width, s.height),
-        pixels * BYTES_PER_PIXEL + world.accel.mesh.memory_bytes() as u64,
+        pixels * BYTES_PER_PIXEL + world.accel.memory_bytes() as u64,
     )?;
     let camera =
         camera(world, options, s.width as f32 / s.height as f32).with_context(|| scene_label.to_string())?;

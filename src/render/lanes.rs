@@ -37,6 +37,8 @@ pub fn applies(scene: &RenderScene, settings: &RenderSettings) -> bool {
     settings.integrator == IntegratorKind::Path
         && settings.clamp_indirect.is_none()
         && scene.accel.spheres.is_empty()
+        && scene.accel.instances.is_empty()
+        && scene.accel.shapes.is_empty()
         && scene.surfaces.iter().all(|o| matches!(o.bsdf, Bsdf::Lambert { .. }))
         && scene.lights.lights.iter().all(|l| matches!(l, Light::Triangle { .. }))
 }

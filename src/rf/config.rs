@@ -303,7 +303,7 @@ impl RfConfig {
         let height = o.grid_height_m.or(g.height_m.map(f64::from)).unwrap_or(DEFAULT_GRID_HEIGHT_M);
         let cell =
             positive(o.cell_m.or(g.cell_m.map(f64::from)).unwrap_or(DEFAULT_CELL_M), "cell size (--cell-m)")?;
-        let bounds = world.scene.mesh.bounds();
+        let bounds = world.bounds();
         let from_bounds = |i: usize, hi: bool| {
             bounds.map(|(lo, up)| f64::from(if hi { up[i] } else { lo[i] })).unwrap_or(if hi {
                 1.0

@@ -56,8 +56,7 @@ pub fn surface_permittivities(
     freq_ghz: f64,
     extrapolate: bool,
 ) -> Result<Vec<Option<Complex>>, String> {
-    let used: std::collections::BTreeSet<u32> =
-        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let used = world.scene.used_surfaces();
     let mut out = Vec::with_capacity(world.scene.surfaces.len());
     for (id, s) in world.scene.surfaces.iter().enumerate() {
         if !used.contains(&(id as u32)) {
@@ -110,7 +109,7 @@ pub fn check(world: &World, config: &RfConfig) -> Result<(), String> {
 /// lies above or below the whole model, or its rectangle beside it. Both usually mean a model
 /// whose up axis is not z (Blender's OBJ export is Y-up) or whose unit is not the metre.
 pub fn grid_misses_model(world: &World, config: &RfConfig) -> Option<String> {
-    let (lo, hi) = world.scene.mesh.bounds()?;
+    let (lo, hi) = world.bounds()?;
     let g = &config.grid;
     let (x1, y1) = (g.min_m[0] + g.cell_m * g.nx as f64, g.min_m[1] + g.cell_m * g.ny as f64);
     let (lo, hi) = (lo.as_dvec3(), hi.as_dvec3());
@@ -355,8 +354,7 @@ fn transmission_text(world: &World, config: &RfConfig) -> String {
     if !config.transmission {
         return "off (opaque walls)".into();
     }
-    let used: std::collections::BTreeSet<u32> =
-        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let used = world.scene.used_surfaces();
     let given: Vec<Option<f64>> = used
         .iter()
         .filter_map(|&id| world.scene.surfaces.get(id as usize))
@@ -390,8 +388,7 @@ fn transmission_text(world: &World, config: &RfConfig) -> String {
 /// `off (S = 0)`, or `on (S = 0.3, lambertian, --scattering-coefficient)` and the like: the
 /// surfaces' scattering coefficients in use, their patterns and where `S` comes from.
 fn diffuse_text(world: &World, config: &RfConfig) -> String {
-    let used: std::collections::BTreeSet<u32> =
-        world.scene.mesh.surface_of_triangle.iter().copied().collect();
+    let used = world.scene.used_surfaces();
     let all = surface_scattering(world, config.scattering_coefficient);
     let in_use: Vec<RadioScattering> =
         all.iter().enumerate().filter(|(id, _)| used.contains(&(*id as u32))).map(|(_, s)| *s).collect();

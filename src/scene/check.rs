@@ -40,6 +40,15 @@ pub struct MeshReport {
     /// With an air volume: whether the shell's normals point out of the air (positive signed
     /// volume), as in BRAS and propsim's rooms; the inside test needs to know.
     pub normals_point_out_of_air: Option<bool>,
+    /// Placed copies of meshes ([`add_instances`]); `triangles` and the edge counts include
+    /// every copy's.
+    pub instances: usize,
+    /// Triangles stored once: the mesh's and one copy of each instanced mesh.
+    pub unique_triangles: usize,
+    /// Components of all the copies together (not in `components`).
+    pub instanced_components: usize,
+    /// Closed components of all the copies together.
+    pub instanced_closed_components: usize,
 }
 
 /// One connected component.
@@ -223,6 +232,93 @@ pub fn analyze(mesh: &TriangleMesh) -> MeshReport {
         }
     }
     report.components = components;
+    report
+}
+
+/// `Some(s^2)` when the linear map `m` is a similarity (`m^T m = s^2 I`, a rotation or mirror
+/// times a uniform scale), whose areas all scale by `s^2`.
+fn similarity_area_factor(m: glam::Mat3A) -> Option<f64> {
+    let g = m.transpose() * m;
+    let s2 = g.x_axis.x;
+    let off = (g - glam::Mat3A::from_diagonal(glam::Vec3::splat(s2))).to_cols_array();
+    off.iter().all(|v| v.abs() <= 1e-6 * s2).then_some(f64::from(s2))
+}
+
+/// `report` (of the scene's own mesh) with the copies of `instances` added: an affine map
+/// keeps a mesh's topology, so edge and component counts add up, closed stays closed and
+/// planar stays planar; areas are mapped exactly (scaled by `s^2` under a similarity, else
+/// triangle by triangle) and volumes scale by `|det|` (mirrored copies are rewound). The
+/// copies' closed, non-planar components inside the room shell are obstacles whose volume
+/// leaves the air; a copy reaching outside the shell leaves the scene without air.
+/// `mesh_reports[i]` is [`analyze`] of `meshes[i]`.
+pub fn add_instances(
+    mut report: MeshReport,
+    meshes: &[TriangleMesh],
+    mesh_reports: &[MeshReport],
+    instances: &[crate::core::Instance],
+) -> MeshReport {
+    report.unique_triangles = report.triangles + mesh_reports.iter().map(|r| r.triangles).sum::<usize>();
+    report.instances = instances.len();
+    let mut obstacles_m3 = 0.0;
+    let mut all_inside = true;
+    let shell = report.components.iter().find(|c| c.closed).map(|c| c.bounds);
+    for inst in instances {
+        let (m, r) = (&meshes[inst.mesh as usize], &mesh_reports[inst.mesh as usize]);
+        report.triangles += r.triangles;
+        report.distinct_vertices += r.distinct_vertices;
+        report.edges += r.edges;
+        report.open_edges += r.open_edges;
+        report.over_shared_edges += r.over_shared_edges;
+        report.misoriented_edges += r.misoriented_edges;
+        report.instanced_components += r.components.len();
+        report.instanced_closed_components += r.components.iter().filter(|c| c.closed).count();
+        let linear = inst.object_to_world.matrix3;
+        let det = f64::from(linear.determinant()).abs();
+        let surface = |local: usize| inst.surfaces.get(local).copied().unwrap_or(local as u32) as usize;
+        match similarity_area_factor(linear) {
+            Some(s2) => {
+                report.total_area_m2 += r.total_area_m2 * s2;
+                for (local, a) in r.area_by_surface_m2.iter().enumerate() {
+                    if let Some(slot) = report.area_by_surface_m2.get_mut(surface(local)) {
+                        *slot += a * s2;
+                    }
+                }
+            }
+            None => {
+                for t in 0..m.triangle_count() {
+                    let [a, b, c] = m.corners(t).map(|p| inst.object_to_world.transform_point3(p).as_dvec3());
+                    let area = 0.5 * (b - a).cross(c - a).length();
+                    report.total_area_m2 += area;
+                    if let Some(slot) =
+                        report.area_by_surface_m2.get_mut(surface(m.surface_of_triangle[t] as usize))
+                    {
+                        *slot += area;
+                    }
+                }
+            }
+        }
+        report.divergence_volume_m3 += r.divergence_volume_m3 * det;
+        obstacles_m3 += r
+            .components
+            .iter()
+            .filter(|c| c.closed && !c.planar)
+            .map(|c| c.signed_volume_m3.abs())
+            .sum::<f64>()
+            * det;
+        if let (Some((lo, hi)), Some((slo, shi))) = (m.bounds(), shell) {
+            let (wlo, whi) = crate::core::accel::instances::transformed_box(&inst.object_to_world, lo, hi);
+            let pad = 1e-4 * (1.0 + shi.abs().max(slo.abs()).max_element());
+            all_inside &= wlo.cmpge(slo - pad).all() && whi.cmple(shi + pad).all();
+        }
+    }
+    if let Some(air) = report.air_volume_m3 {
+        if all_inside {
+            report.air_volume_m3 = Some(air - obstacles_m3);
+        } else {
+            report.air_volume_m3 = None;
+            report.normals_point_out_of_air = None;
+        }
+    }
     report
 }
 

@@ -42,6 +42,12 @@ pub struct SceneDesc {
     /// Analytic spheres.
     #[serde(default)]
     pub spheres: Vec<SphereDesc>,
+    /// Transformed analytic shapes (`[[shapes]]`).
+    #[serde(default)]
+    pub shapes: Vec<super::shapes::ShapeDesc>,
+    /// Placed copies of meshes (`[[instances]]`).
+    #[serde(default)]
+    pub instances: Vec<super::instances::InstanceDesc>,
     /// Room-acoustics settings, sources and receivers.
     pub acoustic: Option<AcousticDesc>,
     /// Radio settings, transmitters, grid and receivers.

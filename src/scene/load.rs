@@ -8,6 +8,7 @@ use serde::{Deserialize, Serialize};
 use super::builtin;
 use super::desc::SceneDesc;
 use super::error::SceneError;
+use super::instances::{LoadContext, SceneInstances, load_instances};
 use super::materials::{Material, MaterialLibrary};
 use super::obj::{MtlEntry, load_obj};
 use crate::core::{Sphere, TriangleMesh};
@@ -37,12 +38,31 @@ pub struct Scene {
     pub surfaces: Vec<Surface>,
     /// Analytic spheres.
     pub spheres: Vec<Sphere>,
+    /// Placed copies of meshes (`[[instances]]`); their surfaces are among `surfaces`.
+    pub instances: SceneInstances,
+    /// Transformed analytic shapes (`[[shapes]]`) and their surfaces.
+    pub shapes: Vec<(crate::core::shapes::Shape, u32)>,
     /// The scene description.
     pub desc: SceneDesc,
     /// The materials.
     pub library: MaterialLibrary,
     /// Non-fatal findings (dropped degenerate triangles, ...), one line each.
     pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Ids of the surfaces that some triangle uses: the mesh's and the instances'.
+    pub fn used_surfaces(&self) -> std::collections::BTreeSet<u32> {
+        let mut used: std::collections::BTreeSet<u32> =
+            self.mesh.surface_of_triangle.iter().copied().collect();
+        used.extend(self.shapes.iter().map(|(_, s)| *s));
+        for i in &self.instances.list {
+            let local: std::collections::BTreeSet<u32> =
+                self.instances.meshes[i.mesh as usize].surface_of_triangle.iter().copied().collect();
+            used.extend(local.into_iter().filter_map(|l| i.surfaces.get(l as usize).copied()));
+        }
+        used
+    }
 }
 
 /// What a user adds to a scene as it loads: extra materials files and how to read the
@@ -176,7 +196,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     }
     library.add_specs(path, &desc.materials)?;
 
-    let obj = load_obj(&obj_path)?;
+    let mut obj = load_obj(&obj_path)?;
     let mut warnings = Vec::new();
     if obj.degenerate_dropped > 0 {
         warnings.push(format!(
@@ -185,7 +205,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
             obj.degenerate_dropped
         ));
     }
-    let mut mesh = obj.mesh;
+    let mut mesh = std::mem::take(&mut obj.mesh);
     if mesh.triangle_count() == 0 {
         return Err(SceneError::invalid(&obj_path, "the scene is empty: no usable triangles"));
     }
@@ -282,6 +302,15 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         spheres.push(Sphere::new(center, s.radius_m, id));
     }
 
+    let instances = load_instances(
+        &LoadContext { path, desc: &desc, obj: &obj, up, scale, library: &library },
+        &mut mesh,
+        &mut surfaces,
+        &mut warnings,
+    )?;
+
+    let shapes = super::shapes::load_shapes(path, &desc.shapes, &library, &mut mesh, &mut surfaces)?;
+
     // Positions given in the description must be finite.
     if let Some(c) = &desc.camera {
         check_point(path, "camera eye", c.eye)?;
@@ -308,5 +337,16 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         }
     }
 
-    Ok(Scene { path: path.to_path_buf(), obj_path, mesh, surfaces, spheres, desc, library, warnings })
+    Ok(Scene {
+        path: path.to_path_buf(),
+        obj_path,
+        mesh,
+        surfaces,
+        spheres,
+        instances,
+        shapes,
+        desc,
+        library,
+        warnings,
+    })
 }

@@ -39,6 +39,10 @@ pub struct ObjScene {
     pub mtl: BTreeMap<String, MtlEntry>,
     /// Triangles dropped because their area was zero (or not finite).
     pub degenerate_dropped: usize,
+    /// Names of the file's objects and groups (`o`/`g` statements; "" before any).
+    pub object_names: Vec<String>,
+    /// Index into `object_names` of each triangle of `mesh`.
+    pub object_of_triangle: Vec<u32>,
 }
 
 /// Surface name given to faces that come before any `usemtl`.
@@ -305,6 +309,13 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
             .map(|mat| mat.name.clone())
             .unwrap_or_else(|| DEFAULT_SURFACE.to_string());
         let surface = mesh.surface_id(&surface_name);
+        let object = match out.object_names.iter().position(|n| n == &model.name) {
+            Some(i) => i as u32,
+            None => {
+                out.object_names.push(model.name.clone());
+                (out.object_names.len() - 1) as u32
+            }
+        };
         let base = mesh.positions.len() as u32;
         for (k, p) in m.positions.chunks_exact(3).enumerate() {
             let v = Vec3::new(p[0], p[1], p[2]);
@@ -327,6 +338,7 @@ pub fn load_obj(path: &Path) -> Result<ObjScene, SceneError> {
             }
             mesh.triangles.push(t);
             mesh.surface_of_triangle.push(surface);
+            out.object_of_triangle.push(object);
         }
     }
     Ok(out)

@@ -19,6 +19,11 @@ pub struct InfoReport {
     pub triangles: usize,
     /// Number of distinct vertices.
     pub vertices: usize,
+    /// Placed copies of meshes (`[[instances]]`).
+    pub instances: usize,
+    /// Triangles stored once: the scene's own and one copy of each instanced mesh
+    /// (`triangles` counts every copy).
+    pub unique_triangles: usize,
     /// Lower corner of the bounding box, metres.
     pub bounds_min_m: [f32; 3],
     /// Upper corner of the bounding box, metres.
@@ -86,6 +91,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
     let s = &world.scene;
     let r = &world.report;
     let (lo, hi) = s.mesh.bounds().unwrap_or((Vec3::ZERO, Vec3::ZERO));
+    let (ilo, ihi) = world.accel.instances.bounds();
+    let (lo, hi) = if ilo.x <= ihi.x { (lo.min(ilo), hi.max(ihi)) } else { (lo, hi) };
     let surfaces = s
         .surfaces
         .iter()
@@ -98,6 +105,11 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
                     .iter()
                     .filter(|sp| sp.surface as usize == i)
                     .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
+                    .sum::<f64>()
+                + s.shapes
+                    .iter()
+                    .filter(|(_, id)| *id as usize == i)
+                    .filter_map(|(sh, _)| sh.area_m2())
                     .sum::<f64>(),
             acoustic: surf.material.as_ref().is_some_and(|m| m.acoustic.is_some()),
             radio: surf.material.as_ref().and_then(|m| m.radio.as_ref()).map(|r| r.to_string()),
@@ -128,6 +140,8 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
         obj: s.obj_path.display().to_string(),
         triangles: r.triangles,
         vertices: r.distinct_vertices,
+        instances: r.instances,
+        unique_triangles: if r.instances > 0 { r.unique_triangles } else { r.triangles },
         bounds_min_m: lo.to_array(),
         bounds_max_m: hi.to_array(),
         total_area_m2: r.total_area_m2,
@@ -135,15 +149,16 @@ pub fn report(world: &World, extra_points: &[[f32; 3]]) -> InfoReport {
             .spheres
             .iter()
             .map(|sp| 4.0 * std::f64::consts::PI * f64::from(sp.radius_m).powi(2))
-            .sum(),
+            .sum::<f64>()
+            + s.shapes.iter().filter_map(|(sh, _)| sh.area_m2()).sum::<f64>(),
         surfaces,
         closed: r.is_closed(),
         open_edges: r.open_edges,
         over_shared_edges: r.over_shared_edges,
         misoriented_edges: r.misoriented_edges,
         consistently_oriented: r.is_consistently_oriented(),
-        components: r.components.len(),
-        closed_components: r.components.iter().filter(|c| c.closed).count(),
+        components: r.components.len() + r.instanced_components,
+        closed_components: r.components.iter().filter(|c| c.closed).count() + r.instanced_closed_components,
         air_volume_m3: r.air_volume_m3,
         divergence_volume_m3: r.divergence_volume_m3,
         points,
@@ -157,6 +172,13 @@ pub fn format_report(r: &InfoReport) -> String {
     let v3 = |v: [f32; 3]| format!("({:.3}, {:.3}, {:.3})", v[0], v[1], v[2]);
     let _ = writeln!(o, "scene:      {}", r.scene);
     let _ = writeln!(o, "geometry:   {} ({} triangles, {} vertices)", r.obj, r.triangles, r.vertices);
+    if r.instances > 0 {
+        let _ = writeln!(
+            o,
+            "instances:  {} copies: {} instanced triangles, {} unique",
+            r.instances, r.triangles, r.unique_triangles
+        );
+    }
     let _ = writeln!(o, "bounds:     {} to {} m", v3(r.bounds_min_m), v3(r.bounds_max_m));
     let _ = writeln!(o, "surfaces:");
     for s in &r.surfaces {
@@ -177,7 +199,7 @@ pub fn format_report(r: &InfoReport) -> String {
     if r.sphere_area_m2 > 0.0 {
         let _ = writeln!(
             o,
-            "area:       {:.3} m^2 of mesh, {:.3} m^2 of spheres",
+            "area:       {:.3} m^2 of mesh, {:.3} m^2 of spheres and shapes",
             r.total_area_m2, r.sphere_area_m2
         );
     } else {

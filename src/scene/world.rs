@@ -2,10 +2,12 @@
 
 use glam::Vec3;
 
-use super::check::{MeshReport, analyze};
+use super::check::{MeshReport, add_instances, analyze};
 use super::error::SceneError;
 use super::load::Scene;
-use crate::core::{Accel, BuildQuality, accel::point_enclosed};
+use crate::core::accel::instances::transformed_box;
+use crate::core::shapes::ShapeSet;
+use crate::core::{Accel, BuildQuality, InstanceSet, PrimitiveKind, accel::point_enclosed};
 
 /// Closest a sound source or receiver, or a radio transmitter, may be to a surface, metres:
 /// nearer, it sits on the surface and half its rays start behind it.
@@ -51,8 +53,10 @@ pub struct World {
     pub scene: Scene,
     /// The acceleration structure.
     pub accel: Accel,
-    /// The mesh's topology and measures.
+    /// The mesh's topology and measures, the instances' copies included.
     pub report: MeshReport,
+    /// The report of each instanced mesh in its own frame.
+    pub instance_reports: Vec<MeshReport>,
 }
 
 impl World {
@@ -67,11 +71,31 @@ impl World {
         })
     }
 
+    /// Corners of a box holding the scene's mesh, instances and shapes; `None` for a scene
+    /// without triangles.
+    pub fn bounds(&self) -> Option<(Vec3, Vec3)> {
+        let mut b = self.scene.mesh.bounds()?;
+        let (lo, hi) = self.accel.instances.bounds();
+        if lo.x <= hi.x {
+            b = (b.0.min(lo), b.1.max(hi));
+        }
+        for (s, _) in &self.accel.shapes.shapes {
+            let (lo, hi) = s.bounds();
+            b = (b.0.min(lo), b.1.max(hi));
+        }
+        Some(b)
+    }
+
     /// Builds the acceleration structure and the mesh report of `scene`.
     pub fn build(scene: Scene) -> Self {
-        let accel = Accel::build(&scene.mesh, scene.spheres.clone(), BuildQuality::default());
-        let report = analyze(&scene.mesh);
-        Self { scene, accel, report }
+        let quality = BuildQuality::default();
+        let i = &scene.instances;
+        let accel = Accel::build(&scene.mesh, scene.spheres.clone(), quality)
+            .with_instances(InstanceSet::build(&i.meshes, &i.list, quality))
+            .with_shapes(ShapeSet::new(scene.shapes.clone()));
+        let instance_reports: Vec<MeshReport> = i.meshes.iter().map(analyze).collect();
+        let report = add_instances(analyze(&scene.mesh), &i.meshes, &instance_reports, &i.list);
+        Self { scene, accel, report, instance_reports }
     }
 
     /// Whether `p` lies in the room's air, by crossing parity against the closed, non-planar
@@ -80,19 +104,42 @@ impl World {
     pub fn is_inside(&self, p: Vec3) -> Option<bool> {
         self.report.air_volume_m3?;
         let r = &self.report;
-        Some(point_enclosed(&self.accel, p, |t| {
+        Some(point_enclosed(&self.accel, p, |instance, h| {
+            let (r, t) = match (h.kind, instance) {
+                (PrimitiveKind::Triangle, None) => (r, h.primitive),
+                (PrimitiveKind::Instance, Some(i)) => {
+                    (&self.instance_reports[self.accel.instances.mesh_of(i) as usize], h.primitive)
+                }
+                _ => return false,
+            };
             let c = &r.components[r.component_of_triangle[t as usize] as usize];
             c.closed && !c.planar
         }))
     }
 
-    /// Distance from `p` to the nearest surface (triangle or sphere), metres; infinite for an
-    /// empty scene. Linear in the triangle count: meant for a handful of points.
+    /// Distance from `p` to the nearest surface (triangle, sphere or instance), metres;
+    /// infinite for an empty scene. Linear in the triangle count (instances whose box lies
+    /// farther than the nearest surface found are skipped): meant for a handful of points.
     pub fn surface_distance_m(&self, p: Vec3) -> f32 {
         let mesh = &self.scene.mesh;
         let triangles = (0..mesh.triangle_count()).map(|t| triangle_distance(p, mesh.corners(t)));
         let spheres = self.scene.spheres.iter().map(|s| ((p - s.center).length() - s.radius_m).abs());
-        triangles.chain(spheres).fold(f32::INFINITY, f32::min)
+        let mut best = triangles.chain(spheres).fold(f32::INFINITY, f32::min);
+        // Instances whose box comes nearer than the best so far, triangle by triangle.
+        let inst = &self.scene.instances;
+        for i in &inst.list {
+            let m = &inst.meshes[i.mesh as usize];
+            let Some((lo, hi)) = m.bounds() else { continue };
+            let (wlo, whi) = transformed_box(&i.object_to_world, lo, hi);
+            if (p - p.clamp(wlo, whi)).length() >= best {
+                continue;
+            }
+            for t in 0..m.triangle_count() {
+                let corners = m.corners(t).map(|c| i.object_to_world.transform_point3(c));
+                best = best.min(triangle_distance(p, corners));
+            }
+        }
+        best
     }
 
     /// Errors when `p` (a `what`, e.g. `source "S1"`) is closer than
