@@ -16,9 +16,9 @@ fn expected_skips(name: &str) -> Vec<(&'static str, &'static str)> {
     let no_tx = ("rf", "give one with --tx X,Y,Z");
     let no_air = ("acoustic", "encloses no air");
     match name {
-        "bras_cr2" | "bras_cr4" => vec![no_tx],
+        "bras_cr2" | "bras_cr4" | "auditorium" => vec![no_tx],
         "cornell_box_classic" => vec![no_air, no_tx],
-        "street_canyon" => vec![no_air],
+        "street_canyon" | "city_block" => vec![no_air],
         // Its floorboard has ITU-R P.2040 data for 50-100 GHz only.
         "l_room" => vec![("rf", "--extrapolate")],
         _ => Vec::new(),
