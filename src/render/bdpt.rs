@@ -450,7 +450,11 @@ fn connect(
         if pt.on_surface() {
             l *= pt.n.dot(ls.wi).abs();
         }
-        if l == Vec3::ZERO || blocked(scene, pt, &v, rays) {
+        if l == Vec3::ZERO {
+            return None;
+        }
+        *rays += 1;
+        if scene.accel.occluded(&Ray::spawn_to(pt.p, pt.n, ls.shadow_point)) {
             return None;
         }
         sampled = Some(v);

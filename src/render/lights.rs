@@ -69,6 +69,13 @@ pub struct LightSample {
     pub pdf: f32,
     /// Whether the light is a Dirac (a point light).
     pub delta: bool,
+    /// Where a shadow ray towards the light should stop: the light point, or for a sphere a
+    /// point 0.1 % of the distance short of it. Near a sphere's silhouette the near root has
+    /// an error of about sqrt(f32 epsilon) times the distance, and a shadow ray ending at the
+    /// computed point would often hit the light sphere itself: that lost 1.4 % of a 10 cm
+    /// bulb's direct light on a floor against the closed form. The segment to the near side of
+    /// a convex light cannot cross the light itself, so stopping short loses nothing.
+    pub shadow_point: Vec3,
 }
 
 impl Light {
@@ -119,6 +126,7 @@ impl Light {
                     li: intensity / d2,
                     pdf: 1.0,
                     delta: true,
+                    shadow_point: position,
                 })
             }
             Light::Triangle { p0, e1, e2, normal, area, le } => {
@@ -133,7 +141,7 @@ impl Light {
                     return None;
                 }
                 let pdf = d2 / (cos_l * area);
-                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false })
+                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false, shadow_point: q })
             }
             Light::Sphere { center, radius, le } => {
                 let to_c = center - p;
@@ -166,6 +174,7 @@ impl Light {
                     li: le,
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
                     delta: false,
+                    shadow_point: p + wi * (distance * (1.0 - 1.0e-3)),
                 })
             }
         }
