@@ -99,7 +99,7 @@ fn bare_obj_gets_an_automatic_camera_and_exr_output_is_linear_float() {
     assert!(px.iter().filter(|p| p.0 + p.1 + p.2 > 0.0).count() > 120);
     assert!(px.iter().any(|p| p.0 > 3.0 * p.1 && p.0 > 0.01));
     // The flags override the automatic camera; every integrator runs.
-    for integrator in ["raycast", "whitted", "distributed", "path"] {
+    for integrator in ["raycast", "whitted", "distributed", "path", "light", "bdpt"] {
         let (ok, _, err) = propsim_in(
             dir.path(),
             &[

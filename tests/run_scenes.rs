@@ -19,6 +19,8 @@ fn expected_skips(name: &str) -> Vec<(&'static str, &'static str)> {
         "bras_cr2" | "bras_cr4" | "auditorium" => vec![no_tx],
         "cornell_box_classic" => vec![no_air, no_tx],
         "street_canyon" | "city_block" => vec![no_air],
+        // A render test scene: 1.2 m across, too small for a source 0.5 m from every wall.
+        "caustics" => vec![("acoustic", "found no place for a source"), no_tx],
         // Its floorboard has ITU-R P.2040 data for 50-100 GHz only.
         "l_room" => vec![("rf", "--extrapolate")],
         _ => Vec::new(),

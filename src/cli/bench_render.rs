@@ -1,4 +1,4 @@
-//! `propsim bench render`: path-tracing speed on the classic Cornell box at 256x256, depth 8,
+//! `propsim bench render`: rendering speed (any integrator) on the classic Cornell box at 256x256, depth 8,
 //! the configuration quoted for Mitsuba 3 in issue 3.
 
 use clap::Args;
@@ -20,7 +20,7 @@ pub struct BenchRenderArgs {
     pub height: u32,
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,
-    /// raycast, whitted, distributed or path.
+    /// raycast, whitted, distributed, path, light or bdpt.
     #[arg(long, default_value = "path")]
     pub integrator: String,
     /// Timed runs; the median is reported.

@@ -69,6 +69,13 @@ pub struct LightSample {
     pub pdf: f32,
     /// Whether the light is a Dirac (a point light).
     pub delta: bool,
+    /// Where a shadow ray towards the light should stop: the light point, or for a sphere a
+    /// point 0.1 % of the distance short of it. Near a sphere's silhouette the near root has
+    /// an error of about sqrt(f32 epsilon) times the distance, and a shadow ray ending at the
+    /// computed point would often hit the light sphere itself: that lost 1.4 % of a 10 cm
+    /// bulb's direct light on a floor against the closed form. The segment to the near side of
+    /// a convex light cannot cross the light itself, so stopping short loses nothing.
+    pub shadow_point: Vec3,
 }
 
 impl Light {
@@ -119,6 +126,7 @@ impl Light {
                     li: intensity / d2,
                     pdf: 1.0,
                     delta: true,
+                    shadow_point: position,
                 })
             }
             Light::Triangle { p0, e1, e2, normal, area, le } => {
@@ -133,7 +141,7 @@ impl Light {
                     return None;
                 }
                 let pdf = d2 / (cos_l * area);
-                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false })
+                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false, shadow_point: q })
             }
             Light::Sphere { center, radius, le } => {
                 let to_c = center - p;
@@ -166,6 +174,7 @@ impl Light {
                     li: le,
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
                     delta: false,
+                    shadow_point: p + wi * (distance * (1.0 - 1.0e-3)),
                 })
             }
         }
@@ -192,6 +201,100 @@ impl Light {
                 let one_minus_cos_max =
                     if sin2_max < 1.0e-4 { 0.5 * sin2_max } else { 1.0 - (1.0 - sin2_max).sqrt() };
                 1.0 / (2.0 * PI * one_minus_cos_max)
+            }
+        }
+    }
+}
+
+/// A ray leaving a light, for tracing from the lights ([`Light::sample_le`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionSample {
+    /// The point on the light, metres.
+    pub point: Vec3,
+    /// Unit surface normal there (zero for a point light).
+    pub normal: Vec3,
+    /// Unit direction of emission.
+    pub dir: Vec3,
+    /// Emitted radiance along `dir` (radiant intensity for a point light).
+    pub le: Vec3,
+    /// Density of `point` per unit area on the light (1 for a point light, a Dirac).
+    pub pdf_pos: f32,
+    /// Density of `dir` per solid angle.
+    pub pdf_dir: f32,
+}
+
+impl Light {
+    /// Whether the light's position is a Dirac (a point light): no path can hit it.
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. })
+    }
+
+    /// Samples a ray leaving the light: a point uniform by area with `u_pos` and a
+    /// cosine-weighted direction about the normal with `u_dir` (uniform on the sphere for a
+    /// point light); pbrt-v4's `SampleLe` (sec. 12.2, 12.3) for one-sided diffuse emitters.
+    pub fn sample_le(&self, u_pos: Vec2, u_dir: Vec2) -> Option<EmissionSample> {
+        let (point, normal, le, pdf_pos) = match *self {
+            Light::Point { position, intensity } => {
+                let dir = uniform_sphere(u_dir);
+                return Some(EmissionSample {
+                    point: position,
+                    normal: Vec3::ZERO,
+                    dir,
+                    le: intensity,
+                    pdf_pos: 1.0,
+                    pdf_dir: 1.0 / (4.0 * PI),
+                });
+            }
+            Light::Triangle { p0, e1, e2, normal, area, le } => {
+                let b = uniform_triangle(u_pos);
+                (p0 + b.x * e1 + b.y * e2, normal, le, 1.0 / area)
+            }
+            Light::Sphere { center, radius, le } => {
+                let n = uniform_sphere(u_pos);
+                (center + radius * n, n, le, 1.0 / (4.0 * PI * radius * radius))
+            }
+        };
+        let local = crate::core::sampling::cosine_hemisphere(u_dir);
+        let pdf_dir = local.z / PI;
+        if pdf_dir <= 0.0 {
+            return None;
+        }
+        Some(EmissionSample { point, normal, dir: to_world(local, normal), le, pdf_pos, pdf_dir })
+    }
+
+    /// Density per solid angle with which [`Light::sample_le`] emits along unit `dir` from a
+    /// point of normal `normal`.
+    #[inline]
+    pub fn pdf_le_dir(&self, normal: Vec3, dir: Vec3) -> f32 {
+        match self {
+            Light::Point { .. } => 1.0 / (4.0 * PI),
+            _ => normal.dot(dir).max(0.0) / PI,
+        }
+    }
+
+    /// Density per unit area with which [`Light::sample_le`] picks a point (1 for a point light).
+    #[inline]
+    pub fn pdf_le_pos(&self) -> f32 {
+        match *self {
+            Light::Point { .. } => 1.0,
+            Light::Triangle { area, .. } => 1.0 / area,
+            Light::Sphere { radius, .. } => 1.0 / (4.0 * PI * radius * radius),
+        }
+    }
+
+    /// Radiance (intensity for a point light) emitted from a point of normal `normal` along
+    /// unit `dir`: one-sided emitters send nothing behind them.
+    #[inline]
+    pub fn le_towards(&self, normal: Vec3, dir: Vec3) -> Vec3 {
+        match *self {
+            Light::Point { intensity, .. } => intensity,
+            Light::Triangle { le, .. } | Light::Sphere { le, .. } => {
+                if normal.dot(dir) > 0.0 {
+                    le
+                } else {
+                    Vec3::ZERO
+                }
             }
         }
     }

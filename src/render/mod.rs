@@ -1,5 +1,5 @@
-//! The image simulator: a camera, BSDFs, lights and four integrators (`raycast`, `whitted`,
-//! `distributed`, `path`) over the shared tracing core.
+//! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
+//! `distributed`, `path`, and from the lights `light` and `bdpt`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -17,17 +17,20 @@
 //! # }
 //! ```
 
+pub mod bdpt;
 pub mod bsdf;
 pub mod camera;
 pub mod distributed;
 pub mod film;
 pub mod job;
 pub mod lanes;
+pub mod light;
 pub mod lights;
 pub mod options;
 pub mod path;
 pub mod raycast;
 pub mod sampler;
+pub mod splat;
 pub mod whitted;
 
 use std::str::FromStr;
@@ -77,11 +80,15 @@ pub enum IntegratorKind {
     /// Unidirectional path tracing with NEE and MIS (the default).
     #[default]
     Path,
+    /// Light tracing: paths from the lights splatted onto the film through the camera.
+    Light,
+    /// Bidirectional path tracing, every connection strategy weighted by MIS (Veach 1997).
+    Bdpt,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 4] = ["raycast", "whitted", "distributed", "path"];
+    pub const NAMES: [&'static str; 6] = ["raycast", "whitted", "distributed", "path", "light", "bdpt"];
 
     /// The integrator's name.
     pub fn name(self) -> &'static str {
@@ -90,7 +97,13 @@ impl IntegratorKind {
 
     /// Whether the pixel samples are jittered (stochastic integrators) or at strata centres.
     fn jitters(self) -> bool {
-        matches!(self, Self::Distributed | Self::Path)
+        matches!(self, Self::Distributed | Self::Path | Self::Bdpt)
+    }
+
+    /// Whether the integrator traces from the lights and splats onto the film (rendered by
+    /// [`light::render_on`] or [`bdpt::render_on`], not pixel by pixel).
+    pub fn splats(self) -> bool {
+        matches!(self, Self::Light | Self::Bdpt)
     }
 }
 
@@ -102,6 +115,8 @@ impl FromStr for IntegratorKind {
             "whitted" => Ok(Self::Whitted),
             "distributed" => Ok(Self::Distributed),
             "path" => Ok(Self::Path),
+            "light" => Ok(Self::Light),
+            "bdpt" => Ok(Self::Bdpt),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -440,7 +455,9 @@ pub struct RenderOutput {
     pub seconds: f64,
 }
 
-/// Radiance along a camera ray by the chosen integrator; counts traced rays into `rays`.
+/// Radiance along a camera ray by the chosen integrator; counts traced rays into `rays`. The
+/// integrators that splat from the lights ([`IntegratorKind::splats`]) have no per-ray
+/// estimate: they get the path tracer's.
 #[inline]
 pub fn radiance(
     scene: &RenderScene,
@@ -457,7 +474,7 @@ pub fn radiance(
         IntegratorKind::Distributed => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::StopAtDiffuse, clamp)
         }
-        IntegratorKind::Path => {
+        IntegratorKind::Path | IntegratorKind::Light | IntegratorKind::Bdpt => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -552,6 +569,11 @@ pub fn render_on(
         }
         None => scene,
     };
+    match settings.integrator {
+        IntegratorKind::Light => return Ok(light::render_on(cluster, scene, camera, settings, progress)),
+        IntegratorKind::Bdpt => return Ok(bdpt::render_on(cluster, scene, camera, settings, progress)),
+        _ => {}
+    }
     let (w, h) = (settings.width, settings.height);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))

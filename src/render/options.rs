@@ -34,7 +34,8 @@ pub struct RenderOptions {
     /// Maximum bounces; 1 = direct light only (default: the scene's, else 8).
     #[arg(long = "max-depth")]
     pub max_depth: Option<u32>,
-    /// raycast, whitted, distributed or path (default: the scene's, else path).
+    /// raycast, whitted, distributed, path, light (light tracing) or bdpt (bidirectional path
+    /// tracing) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.

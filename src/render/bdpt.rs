@@ -1,0 +1,698 @@
+//! Bidirectional path tracing (Veach and Guibas 1995; Veach 1997, ch. 10; the structure of
+//! pbrt-v3 sec. 16.3 and pbrt-v4's `BDPTIntegrator`): for each camera sample, a subpath from
+//! the camera and one from a light, joined in every way (`s` light vertices, `t` camera
+//! vertices): `s = 0` the camera path hits an emitter, `s = 1` next-event estimation,
+//! `t = 1` light tracing splatted onto the film through the camera's importance, and the
+//! general joins of two subpath vertices. Every strategy is weighted by multiple importance
+//! sampling with the balance heuristic, computed from each vertex's forward and reverse
+//! area densities (Veach 1997, sec. 10.2; pbrt-v3 sec. 16.3.4).
+//!
+//! Subpaths end by Russian roulette from bounce 5 (as `path`), which keeps every strategy
+//! unbiased; the MIS weights leave the roulette out, which keeps them summing to one.
+//! The background is reached only by camera subpaths (it is not sampled from the lights),
+//! so escaping camera paths take it in full. Numbers come from each pixel's random stream;
+//! the `t = 1` splats are summed in fixed point ([`super::splat`]), so the image is the same
+//! for any thread count and any split over MPI ranks.
+
+use std::time::Instant;
+
+use glam::{Vec2, Vec3};
+use rayon::prelude::*;
+
+use super::light::importance_weight;
+use super::splat::{SplatFilm, finish};
+use super::{Bsdf, Camera, Film, Frame, RenderOutput, RenderScene, RenderSettings, TILE, u2};
+use crate::core::rng::{Rng64, uniform};
+use crate::core::{Hit, Ray};
+use crate::dist::Cluster;
+
+/// What a subpath vertex is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexKind {
+    /// A point on the lens.
+    Camera,
+    /// The first vertex of a light subpath: a point on a light.
+    Light,
+    /// A surface scattering point.
+    Surface,
+}
+
+/// A vertex of a camera or light subpath.
+#[derive(Clone, Copy, Debug)]
+pub struct Vertex {
+    /// What it is.
+    pub kind: VertexKind,
+    /// Position, metres.
+    pub p: Vec3,
+    /// Unit geometric normal (zero on a pinhole, a lens point or a point light).
+    pub n: Vec3,
+    /// Shading frame about `n` (surfaces).
+    pub frame: Frame,
+    /// The BSDF (surfaces).
+    pub bsdf: Bsdf,
+    /// Unit direction to the previous vertex of its subpath (surfaces).
+    pub wo: Vec3,
+    /// The light this vertex lies on (light vertices, and surface hits on emitters).
+    pub light: Option<usize>,
+    /// Throughput of the subpath up to and including this vertex.
+    pub beta: Vec3,
+    /// Whether the vertex scattered by a Dirac lobe (mirror, glass).
+    pub delta: bool,
+    /// Density per area of this vertex as its subpath sampled it.
+    pub pdf_fwd: f32,
+    /// Density per area of this vertex if sampled from the other end.
+    pub pdf_rev: f32,
+}
+
+/// Transport mode of a subpath: radiance from the camera, importance from the lights.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Mode {
+    Radiance,
+    Importance,
+}
+
+impl Vertex {
+    fn endpoint(kind: VertexKind, p: Vec3, n: Vec3, beta: Vec3, light: Option<usize>) -> Self {
+        Self {
+            kind,
+            p,
+            n,
+            frame: Frame::new(if n == Vec3::ZERO { Vec3::Z } else { n }),
+            bsdf: Bsdf::Lambert { albedo: Vec3::ZERO },
+            wo: Vec3::ZERO,
+            light,
+            beta,
+            delta: false,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+        }
+    }
+
+    fn surface(scene: &RenderScene, hit: &Hit, wo: Vec3, beta: Vec3) -> Self {
+        Self {
+            kind: VertexKind::Surface,
+            p: hit.point,
+            n: hit.normal,
+            frame: Frame::new(hit.normal),
+            bsdf: scene.surfaces[hit.surface as usize].bsdf,
+            wo,
+            light: scene.light_of(hit),
+            beta,
+            delta: false,
+            pdf_fwd: 0.0,
+            pdf_rev: 0.0,
+        }
+    }
+
+    #[inline]
+    fn on_surface(&self) -> bool {
+        self.n != Vec3::ZERO
+    }
+
+    /// Whether a connection may end here (not at a Dirac BSDF).
+    #[inline]
+    fn connectible(&self) -> bool {
+        self.kind != VertexKind::Surface || !self.bsdf.is_delta()
+    }
+
+    /// The BSDF value from the previous vertex towards `next` (surfaces; the BSDFs that can
+    /// be evaluated, Lambert and GGX metal, are their own adjoints).
+    #[inline]
+    fn f(&self, next: &Vertex) -> Vec3 {
+        let wi = (next.p - self.p).normalize_or_zero();
+        self.bsdf.eval(self.frame.to_local(self.wo), self.frame.to_local(wi))
+    }
+
+    /// Radiance this vertex emits towards `v` (emitters only).
+    fn le(&self, scene: &RenderScene, v: &Vertex) -> Vec3 {
+        self.light.map_or(Vec3::ZERO, |l| {
+            scene.lights.lights[l].le_towards(self.n, (v.p - self.p).normalize_or_zero())
+        })
+    }
+
+    /// A density per solid angle at this vertex turned into one per area at `next`.
+    #[inline]
+    fn convert_density(&self, pdf: f32, next: &Vertex) -> f32 {
+        let w = next.p - self.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return 0.0;
+        }
+        let inv = 1.0 / d2;
+        let cos = if next.on_surface() { next.n.dot(w * inv.sqrt()).abs() } else { 1.0 };
+        pdf * cos * inv
+    }
+
+    /// Density per area at `next` with which this vertex, reached from `prev`, samples it.
+    fn pdf(&self, scene: &RenderScene, camera: &Camera, prev: Option<&Vertex>, next: &Vertex) -> f32 {
+        if self.kind == VertexKind::Light {
+            return self.pdf_light(scene, next);
+        }
+        let wn = (next.p - self.p).normalize_or_zero();
+        let pdf = match self.kind {
+            VertexKind::Camera => camera.pdf_we(self.p, wn).1,
+            _ => {
+                let Some(prev) = prev else { return 0.0 };
+                let wp = (prev.p - self.p).normalize_or_zero();
+                self.bsdf.pdf(self.frame.to_local(wp), self.frame.to_local(wn))
+            }
+        };
+        self.convert_density(pdf, next)
+    }
+
+    /// Density per area at `v` of an emitted ray from this emitter point reaching it.
+    fn pdf_light(&self, scene: &RenderScene, v: &Vertex) -> f32 {
+        let Some(l) = self.light else { return 0.0 };
+        let w = v.p - self.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return 0.0;
+        }
+        let w = w / d2.sqrt();
+        let pdf = scene.lights.lights[l].pdf_le_dir(self.n, w) / d2;
+        if v.on_surface() { pdf * v.n.dot(w).abs() } else { pdf }
+    }
+
+    /// Density per area of this emitter point as the start of a light subpath (light choice
+    /// included).
+    fn pdf_light_origin(&self, scene: &RenderScene) -> f32 {
+        self.light.map_or(0.0, |l| scene.lights.pmf(l) * scene.lights.lights[l].pdf_le_pos())
+    }
+}
+
+/// Extends `path` (holding its first vertex) by a random walk from `ray` with throughput
+/// `beta`, `pdf` the density per solid angle of `ray`'s direction, to at most `max_vertices`
+/// vertices. Returns the background radiance a camera subpath escaping the scene picks up.
+#[allow(clippy::too_many_arguments)]
+fn random_walk(
+    scene: &RenderScene,
+    mut ray: Ray,
+    mut beta: Vec3,
+    pdf: f32,
+    max_vertices: usize,
+    mode: Mode,
+    rng: &mut Rng64,
+    path: &mut Vec<Vertex>,
+    rays: &mut u64,
+) -> Vec3 {
+    let mut pdf_fwd = pdf;
+    while path.len() < max_vertices {
+        *rays += 1;
+        let Some(hit) = scene.intersect(&ray) else {
+            return if mode == Mode::Radiance { beta * scene.background } else { Vec3::ZERO };
+        };
+        let mut v = Vertex::surface(scene, &hit, -ray.dir, beta);
+        let prev = path.len() - 1;
+        v.pdf_fwd = path[prev].convert_density(pdf_fwd, &v);
+        let (u, uc, u_rr) = (u2(rng), uniform(rng), uniform(rng));
+        path.push(v);
+        if path.len() >= max_vertices {
+            break;
+        }
+        let wo = v.frame.to_local(-ray.dir);
+        let Some(s) = v.bsdf.sample(wo, u, uc) else { break };
+        beta *= if mode == Mode::Importance { importance_weight(&v.bsdf, wo, &s) } else { s.weight() };
+        pdf_fwd = s.pdf;
+        let mut pdf_rev = v.bsdf.pdf(s.wi, wo);
+        if s.specular {
+            path.last_mut().expect("pushed").delta = true;
+            pdf_fwd = 0.0;
+            pdf_rev = 0.0;
+        }
+        let here = path.len() - 1;
+        path[prev].pdf_rev = path[here].convert_density(pdf_rev, &path[prev]);
+        let bounces = here as u32;
+        if bounces >= super::path::RR_START_DEPTH {
+            let q = beta.max_element().min(1.0);
+            if q <= 0.0 || u_rr >= q {
+                break;
+            }
+            beta /= q;
+        } else if beta == Vec3::ZERO {
+            break;
+        }
+        ray = Ray::spawn(hit.point, hit.normal, v.frame.to_world(s.wi));
+    }
+    Vec3::ZERO
+}
+
+/// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
+/// then a walk of at most `max_depth` more vertices.
+fn light_subpath(
+    scene: &RenderScene,
+    max_depth: u32,
+    rng: &mut Rng64,
+    path: &mut Vec<Vertex>,
+    rays: &mut u64,
+) {
+    path.clear();
+    let Some((index, pmf)) = scene.lights.choose(uniform(rng)) else { return };
+    let light = &scene.lights.lights[index];
+    let (u_pos, u_dir) = (u2(rng), u2(rng));
+    let Some(e) = light.sample_le(u_pos, u_dir) else { return };
+    let mut v0 = Vertex::endpoint(VertexKind::Light, e.point, e.normal, e.le, Some(index));
+    v0.pdf_fwd = pmf * e.pdf_pos;
+    path.push(v0);
+    let on_surface = e.normal != Vec3::ZERO;
+    let cos = if on_surface { e.normal.dot(e.dir).abs() } else { 1.0 };
+    let beta = e.le * (cos / (pmf * e.pdf_pos * e.pdf_dir));
+    let ray = if on_surface { Ray::spawn(e.point, e.normal, e.dir) } else { Ray::new(e.point, e.dir) };
+    random_walk(scene, ray, beta, e.pdf_dir, max_depth as usize + 1, Mode::Importance, rng, path, rays);
+}
+
+/// The unit normal of light `l` at its point `p` (zero for a point light).
+fn light_normal(scene: &RenderScene, l: usize, p: Vec3) -> Vec3 {
+    match scene.lights.lights[l] {
+        super::Light::Point { .. } => Vec3::ZERO,
+        super::Light::Triangle { normal, .. } => normal,
+        super::Light::Sphere { center, .. } => (p - center).normalize_or_zero(),
+    }
+}
+
+/// Whether the segment between two vertices is blocked.
+fn blocked(scene: &RenderScene, a: &Vertex, b: &Vertex, rays: &mut u64) -> bool {
+    *rays += 1;
+    scene.accel.occluded(&Ray::spawn_to(a.p, a.n, b.p))
+}
+
+/// `(pdf_rev, pdf_fwd, delta)` of a vertex, as the MIS weight reads them.
+type Densities = (f32, f32, bool);
+
+/// The balance-heuristic weight of the path made by joining `light[..s]` and `camera[..t]`,
+/// with `sampled` standing in for the sampled endpoint of the `s = 1` or `t = 1` strategies
+/// (pbrt-v3 sec. 16.3.4, `MISWeight`).
+fn mis_weight(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    light: &[Vertex],
+    camera: &[Vertex],
+    sampled: Option<&Vertex>,
+    s: usize,
+    t: usize,
+) -> f32 {
+    if s + t == 2 {
+        return 1.0;
+    }
+    let qs = (s > 0).then(|| if s == 1 { *sampled.unwrap_or(&light[0]) } else { light[s - 1] });
+    let pt = if t == 1 { *sampled.unwrap_or(&camera[0]) } else { camera[t - 1] };
+    let qs_minus = (s > 1).then(|| light[s - 2]);
+    let pt_minus = (t > 1).then(|| camera[t - 2]);
+    let d = |v: &Vertex| -> Densities { (v.pdf_rev, v.pdf_fwd, v.delta) };
+    let mut cam: Vec<Densities> = camera[..t].iter().map(d).collect();
+    cam[t - 1] = d(&pt);
+    let mut lig: Vec<Densities> = light[..s].iter().map(d).collect();
+    if let Some(q) = &qs {
+        lig[s - 1] = d(q);
+    }
+    // The joined vertices are not Dirac, whatever their BSDF.
+    cam[t - 1].2 = false;
+    if s > 0 {
+        lig[s - 1].2 = false;
+    }
+    cam[t - 1].0 = match &qs {
+        Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
+        None => pt.pdf_light_origin(scene),
+    };
+    if let Some(pm) = &pt_minus {
+        cam[t - 2].0 = match &qs {
+            Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
+            None => pt.pdf_light(scene, pm),
+        };
+    }
+    if let Some(q) = &qs {
+        lig[s - 1].0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
+    }
+    if let (Some(q), Some(qm)) = (&qs, &qs_minus) {
+        lig[s - 2].0 = q.pdf(scene, camera_model, Some(&pt), qm);
+    }
+    let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
+    let mut sum = 0.0f32;
+    let mut ri = 1.0f32;
+    for i in (1..t).rev() {
+        ri *= remap(cam[i].0) / remap(cam[i].1);
+        if !cam[i].2 && !cam[i - 1].2 {
+            sum += ri;
+        }
+    }
+    ri = 1.0;
+    for i in (0..s).rev() {
+        ri *= remap(lig[i].0) / remap(lig[i].1);
+        let delta_before = if i > 0 {
+            lig[i - 1].2
+        } else {
+            let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { &light[0] };
+            first.light.is_some_and(|l| scene.lights.lights[l].is_delta())
+        };
+        if !lig[i].2 && !delta_before {
+            sum += ri;
+        }
+    }
+    let w = 1.0 / (1.0 + sum);
+    if w.is_finite() { w } else { 0.0 }
+}
+
+/// One camera sample of pixel `(x, y)`: its radiance estimate (strategies with `t >= 2`), with
+/// the `t = 1` light-image contributions splatted on `film`.
+#[allow(clippy::too_many_arguments)]
+fn sample(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    s: &RenderSettings,
+    x: u32,
+    y: u32,
+    rng: &mut Rng64,
+    paths: &mut (Vec<Vertex>, Vec<Vertex>),
+    film: &mut SplatFilm,
+    rays: &mut u64,
+) -> Vec3 {
+    let (camera, light) = paths;
+    camera.clear();
+    let o = u2(rng);
+    let lens = if camera_model.aperture_radius_m > 0.0 { u2(rng) } else { Vec2::ZERO };
+    let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
+    let ray = camera_model.ray(fp, lens);
+    camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+    let pdf_dir = camera_model.pdf_we(ray.origin, ray.dir).1;
+    let max_depth = s.max_depth as usize;
+    let mut l = random_walk(scene, ray, Vec3::ONE, pdf_dir, max_depth + 2, Mode::Radiance, rng, camera, rays);
+    light_subpath(scene, s.max_depth, rng, light, rays);
+    for t in 1..=camera.len() {
+        for si in 0..=light.len() {
+            let depth = (si + t) as i64 - 2;
+            if (si == 1 && t == 1) || depth < 0 || depth > max_depth as i64 {
+                continue;
+            }
+            let u = u2(rng);
+            if let Some((c, splat)) = connect(scene, camera_model, light, camera, si, t, u, rays) {
+                match splat {
+                    Some(p) => film.add(p, c),
+                    None => l += c,
+                }
+            }
+        }
+    }
+    l
+}
+
+/// The weighted contribution of strategy `(s, t)`, and for `t = 1` the film point to splat it on.
+#[allow(clippy::too_many_arguments)]
+fn connect(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    light: &[Vertex],
+    camera: &[Vertex],
+    s: usize,
+    t: usize,
+    u: Vec2,
+    rays: &mut u64,
+) -> Option<(Vec3, Option<Vec2>)> {
+    let mut sampled = None;
+    let mut splat = None;
+    let l = if s == 0 {
+        let pt = &camera[t - 1];
+        pt.light?;
+        pt.le(scene, &camera[t - 2]) * pt.beta
+    } else if t == 1 {
+        let qs = &light[s - 1];
+        if !qs.connectible() {
+            return None;
+        }
+        let c = camera_model.sample_wi(qs.p, u)?;
+        let v = Vertex::endpoint(
+            VertexKind::Camera,
+            c.point,
+            Vec3::ZERO,
+            Vec3::splat(c.importance / c.pdf),
+            None,
+        );
+        let mut l = qs.beta * qs.f(&v) * v.beta;
+        if qs.on_surface() {
+            l *= qs.n.dot(c.wi).abs();
+        }
+        if l == Vec3::ZERO || blocked(scene, qs, &v, rays) {
+            return None;
+        }
+        sampled = Some(v);
+        splat = Some(c.film);
+        l
+    } else if s == 1 {
+        let pt = &camera[t - 1];
+        if !pt.connectible() {
+            return None;
+        }
+        let (index, pmf, ux) = scene.lights.choose_reusing(u.x)?;
+        let light_model = &scene.lights.lights[index];
+        let ls = light_model.sample(pt.p, Vec2::new(ux, u.y))?;
+        let n = light_normal(scene, index, ls.point);
+        let mut v = Vertex::endpoint(VertexKind::Light, ls.point, n, ls.li / (pmf * ls.pdf), Some(index));
+        v.pdf_fwd = v.pdf_light_origin(scene);
+        let mut l = pt.beta * pt.f(&v) * v.beta;
+        if pt.on_surface() {
+            l *= pt.n.dot(ls.wi).abs();
+        }
+        if l == Vec3::ZERO {
+            return None;
+        }
+        *rays += 1;
+        if scene.accel.occluded(&Ray::spawn_to(pt.p, pt.n, ls.shadow_point)) {
+            return None;
+        }
+        sampled = Some(v);
+        l
+    } else {
+        let (qs, pt) = (&light[s - 1], &camera[t - 1]);
+        if !qs.connectible() || !pt.connectible() {
+            return None;
+        }
+        let mut l = qs.beta * qs.f(pt) * pt.f(qs) * pt.beta;
+        if l == Vec3::ZERO {
+            return None;
+        }
+        let w = qs.p - pt.p;
+        let d2 = w.length_squared();
+        if d2 == 0.0 {
+            return None;
+        }
+        let w = w / d2.sqrt();
+        l *= qs.n.dot(w).abs() * pt.n.dot(w).abs() / d2;
+        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) {
+            return None;
+        }
+        l
+    };
+    if l == Vec3::ZERO || !l.is_finite() {
+        return None;
+    }
+    let w = mis_weight(scene, camera_model, light, camera, sampled.as_ref(), s, t);
+    Some((l * w, splat))
+}
+
+/// Renders by BDPT on this process's share of `cluster` (16x16 tiles dealt round-robin, as
+/// `path` does); rank 0 returns the image: each pixel's mean over its samples plus the light
+/// image over every process.
+pub fn render_on(
+    cluster: &Cluster,
+    scene: &RenderScene,
+    camera: &Camera,
+    settings: &RenderSettings,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Option<RenderOutput> {
+    let start = Instant::now();
+    let share = cluster.share();
+    let (w, h) = (settings.width, settings.height);
+    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
+        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .collect();
+    let mine: Vec<(u32, u32)> =
+        tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let min_len = (mine.len() / (8 * rayon::current_num_threads())).max(1);
+    type Acc = (Vec<((u32, u32), Vec<Vec3>)>, SplatFilm, u64);
+    let (done, splats, rays): Acc = mine
+        .par_iter()
+        .with_min_len(min_len)
+        .fold(
+            || (Vec::new(), SplatFilm::new(w, h), 0u64),
+            |(mut done, mut film, mut rays), &(x0, y0)| {
+                let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
+                let mut paths = (Vec::new(), Vec::new());
+                let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
+                for y in y0..y1 {
+                    for x in x0..x1 {
+                        let (mut rng, _) = super::pixel_stream(settings, x, y);
+                        let mut sum = Vec3::ZERO;
+                        for _ in 0..settings.spp {
+                            let l = sample(
+                                scene, camera, settings, x, y, &mut rng, &mut paths, &mut film, &mut rays,
+                            );
+                            if l.is_finite() {
+                                sum += l;
+                            }
+                        }
+                        px.push(sum / settings.spp as f32);
+                    }
+                }
+                progress(u64::from((x1 - x0) * (y1 - y0)));
+                done.push(((x0, y0), px));
+                (done, film, rays)
+            },
+        )
+        .reduce(
+            || (Vec::new(), SplatFilm::new(w, h), 0),
+            |(mut da, fa, ra), (db, fb, rb)| {
+                da.extend(db);
+                (da, fa.merge(&fb), ra + rb)
+            },
+        );
+    let mut film = Film::new(w, h);
+    for ((x0, y0), px) in done {
+        let tw = (x0 + TILE).min(w) - x0;
+        for (k, p) in px.into_iter().enumerate() {
+            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
+            film.pixels[(y * w + x) as usize] = p;
+        }
+    }
+    finish(cluster, film, splats, settings.spp, rays, start)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::rng::stream;
+    use crate::scene::{self, LoadOptions, World};
+
+    /// The balance weight of strategy `(s, t)` computed from scratch: every strategy's density
+    /// of the whole path, products of per-vertex densities recomputed from the positions.
+    fn brute_weight(
+        scene: &RenderScene,
+        cam: &Camera,
+        light: &[Vertex],
+        camera: &[Vertex],
+        sampled: Option<&Vertex>,
+        s: usize,
+        t: usize,
+    ) -> f64 {
+        let mut xs: Vec<Vertex> = camera[..t].to_vec();
+        if t == 1 {
+            xs[0] = *sampled.unwrap();
+        }
+        for j in (0..s).rev() {
+            xs.push(if s == 1 { *sampled.unwrap() } else { light[j] });
+        }
+        let k = xs.len() - 1;
+        let mut p_cam = vec![0.0f64; k + 1];
+        let mut p_light = vec![0.0f64; k + 1];
+        for i in 1..=k {
+            p_cam[i] = f64::from(if i == 1 {
+                xs[0].pdf(scene, cam, None, &xs[1])
+            } else {
+                xs[i - 1].pdf(scene, cam, Some(&xs[i - 2]), &xs[i])
+            });
+        }
+        p_light[k] = f64::from(xs[k].pdf_light_origin(scene));
+        p_light[k - 1] = f64::from(xs[k].pdf_light(scene, &xs[k - 1]));
+        for j in (1..k.saturating_sub(1)).rev() {
+            p_light[j] = f64::from(xs[j + 1].pdf(scene, cam, Some(&xs[j + 2]), &xs[j]));
+        }
+        let delta = |i: usize| {
+            if i == k {
+                xs[k].light.is_some_and(|l| scene.lights.lights[l].is_delta())
+            } else {
+                xs[i].kind == VertexKind::Surface && xs[i].bsdf.is_delta()
+            }
+        };
+        let density = |tp: usize| -> f64 {
+            (1..tp).map(|i| p_cam[i]).product::<f64>() * (tp..=k).map(|j| p_light[j]).product::<f64>()
+        };
+        let mut total = 0.0;
+        for tp in 1..=k + 1 {
+            let valid = if tp == k + 1 { !delta(k) } else { !delta(tp - 1) && !delta(tp) };
+            if valid {
+                total += density(tp);
+            }
+        }
+        // Vertices a few millimetres apart (densities above 1e4 per m^2) leave f32 positions
+        // too few digits for a 1 % comparison.
+        if p_cam.iter().chain(&p_light).any(|&p| p > 1e4) {
+            return f64::NAN;
+        }
+        density(t) / total
+    }
+
+    #[test]
+    fn mis_weights_match_the_balance_heuristic_from_scratch() {
+        let world = World::build(
+            scene::load("builtin:cornell_box_classic".as_ref(), &LoadOptions::default()).unwrap(),
+        );
+        let scene = RenderScene::new(&world);
+        let cam = super::super::scene_camera(&world, 1.0).unwrap();
+        let settings = RenderSettings { width: 16, height: 16, max_depth: 6, ..RenderSettings::default() };
+        let mut rng = stream(5, 0, 0);
+        let (mut camera, mut light) = (Vec::new(), Vec::new());
+        let mut rays = 0;
+        let mut checked = 0;
+        for n in 0..400 {
+            let (x, y) = (n % 16, (n / 16) % 16);
+            camera.clear();
+            let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 16.0, (y as f32 + 0.5) / 16.0), Vec2::ZERO);
+            camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+            let pdf_dir = cam.pdf_we(ray.origin, ray.dir).1;
+            random_walk(&scene, ray, Vec3::ONE, pdf_dir, 8, Mode::Radiance, &mut rng, &mut camera, &mut rays);
+            light_subpath(&scene, settings.max_depth, &mut rng, &mut light, &mut rays);
+            for t in 1..=camera.len() {
+                for s in 0..=light.len() {
+                    if (s == 1 && t == 1) || s + t < 3 || s + t > 8 {
+                        continue;
+                    }
+                    // The sampled endpoints of connect(), rebuilt without the visibility test.
+                    let sampled = if t == 1 {
+                        let Some(c) = cam.sample_wi(light[s - 1].p, u2(&mut rng)) else { continue };
+                        Some(Vertex::endpoint(VertexKind::Camera, c.point, Vec3::ZERO, Vec3::ONE, None))
+                    } else if s == 1 {
+                        let pt = &camera[t - 1];
+                        let u = u2(&mut rng);
+                        let Some((index, _, ux)) = scene.lights.choose_reusing(u.x) else { continue };
+                        let Some(ls) = scene.lights.lights[index].sample(pt.p, Vec2::new(ux, u.y)) else {
+                            continue;
+                        };
+                        let nrm = light_normal(&scene, index, ls.point);
+                        let mut v =
+                            Vertex::endpoint(VertexKind::Light, ls.point, nrm, Vec3::ONE, Some(index));
+                        v.pdf_fwd = v.pdf_light_origin(&scene);
+                        Some(v)
+                    } else {
+                        None
+                    };
+                    if s == 0 && camera[t - 1].light.is_none() {
+                        continue;
+                    }
+                    // Only paths that carry light: the joined vertices scatter towards each other.
+                    let pt = if t == 1 { sampled.unwrap() } else { camera[t - 1] };
+                    let qs = if s == 1 {
+                        sampled.unwrap()
+                    } else if s > 0 {
+                        light[s - 1]
+                    } else {
+                        pt
+                    };
+                    let carries = match (s, t) {
+                        (0, _) => pt.le(&scene, &camera[t - 2]) != Vec3::ZERO,
+                        (_, 1) => qs.f(&pt) != Vec3::ZERO,
+                        (1, _) => pt.f(&qs) != Vec3::ZERO && qs.le(&scene, &pt) != Vec3::ZERO,
+                        _ => qs.f(&pt) != Vec3::ZERO && pt.f(&qs) != Vec3::ZERO,
+                    };
+                    if !carries {
+                        continue;
+                    }
+                    let w = mis_weight(&scene, &cam, &light, &camera, sampled.as_ref(), s, t);
+                    let b = brute_weight(&scene, &cam, &light, &camera, sampled.as_ref(), s, t);
+                    if !b.is_finite() || b == 0.0 {
+                        continue;
+                    }
+                    checked += 1;
+                    assert!((f64::from(w) - b).abs() <= 1e-2 * b.max(1e-2), "s {s} t {t}: {w} vs {b}");
+                }
+            }
+        }
+        assert!(checked > 1000, "{checked}");
+    }
+}
