@@ -14,7 +14,8 @@
 //! one realisation match the directional energy in expectation over many segments, as the
 //! mono response's Diracs match the histogram's energy.
 //!
-//! Since `Y_0 = 1`, the W channel is the mono response (to rounding in the cross-fades): its
+//! Since `Y_0 = 1`, the W channel is the mono response (to rounding in the cross-fades, where
+//! the higher orders are scaled back to one plane wave's energy): its
 //! energy per band is the mono response's, which is the histogram's.
 
 use glam::{DVec3, Vec3};
@@ -179,6 +180,21 @@ fn fade_in(n: usize, start: usize, len: usize) -> f64 {
     ((n - start) as f64 / fade as f64).min(1.0)
 }
 
+/// Scales each order `n >= 1` of the SN3D gains `mix` (ACN order) to unit norm: a plane
+/// wave's gains have `sum_m Y_nm^2 = P_n(1) = 1` in every order (the addition theorem), so a
+/// cross-fade between two directions, whose linear mix is shorter, keeps each order's energy
+/// (the omnidirectional W stays the plain linear mix, 1). A mix that nearly vanishes (two
+/// opposite directions half-way) is left as it is.
+fn keep_order_energy(mix: &mut [f64], order: usize) {
+    for n in 1..=order {
+        let Some(block) = mix.get_mut(n * n..(n + 1) * (n + 1)) else { return };
+        let norm = block.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 1.0e-3 {
+            block.iter_mut().for_each(|x| *x /= norm);
+        }
+    }
+}
+
 /// The Ambisonic response of order `order` (1 to 3): `channels(order)` signals in ACN order,
 /// SN3D, in the listener's frame, from the band signals `bands` (their sum is the mono
 /// response).
@@ -201,10 +217,15 @@ pub fn ambisonic(
             // The cross-fade, then the steady part channel by channel (a contiguous loop the
             // compiler vectorises).
             let fade_end = (start + ((end - start) / 4).max(1)).min(end);
+            let mut mix = vec![0.0; n_ch];
             for (n, &v) in band.iter().enumerate().take(fade_end).skip(start) {
                 let w = fade_in(n, start, end - start);
-                for (k, ch) in out.iter_mut().enumerate() {
-                    ch[n] += v * ((1.0 - w) * before[k] + w * gains[k]);
+                for (m, (a, b)) in mix.iter_mut().zip(before.iter().zip(&gains)) {
+                    *m = (1.0 - w) * a + w * b;
+                }
+                keep_order_energy(&mut mix, order);
+                for (ch, &m) in out.iter_mut().zip(&mix) {
+                    ch[n] += v * m;
                 }
             }
             for (ch, &g) in out.iter_mut().zip(&gains) {
@@ -384,6 +405,26 @@ mod tests {
             let want = turned.to_head(u);
             assert!(found.dot(want) > 2f64.to_radians().cos(), "turned head: {found} vs {want}");
         }
+    }
+
+    #[test]
+    fn a_cross_fade_keeps_each_orders_energy_and_w() {
+        // Half-way between two directions 120 degrees apart the linear mix of the first-order
+        // gains has |c|^2 = 1/4 + 1/4 + 2/4 cos(120 deg) = 1/4 (-6 dB); after the scaling each
+        // order has the energy of one plane wave again, 1, and W stays 1.
+        let (a, b) = (sh_sn3d(dir(0.0, 0.0), 3), sh_sn3d(dir(120.0, 0.0), 3));
+        let mut mix: Vec<f64> = a.iter().zip(&b).map(|(x, y)| 0.5 * x + 0.5 * y).collect();
+        let first: f64 = mix[1..4].iter().map(|x| x * x).sum();
+        assert!((first - 0.25).abs() < 1e-12, "{first}");
+        keep_order_energy(&mut mix, 3);
+        assert!((mix[0] - 1.0).abs() < 1e-12);
+        for n in 1..=3 {
+            let e: f64 = mix[n * n..(n + 1) * (n + 1)].iter().map(|x| x * x).sum();
+            assert!((e - 1.0).abs() < 1e-12, "order {n}: {e}");
+        }
+        // The mix still points between the two: its first-order part decodes to 60 degrees.
+        let (y, x) = (mix[1], mix[3]);
+        assert!((y.atan2(x).to_degrees() - 60.0).abs() < 1e-9);
     }
 
     #[test]
