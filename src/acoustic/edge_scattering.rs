@@ -62,14 +62,19 @@ impl EdgeScattering {
                 }
             }
         }
+        let mut triangles_of: Vec<Vec<usize>> = vec![Vec::new(); count];
+        for (t, &r) in regions.iter().enumerate() {
+            if free[r as usize] {
+                triangles_of[r as usize].push(t);
+            }
+        }
         let mut panel_of_region = vec![u32::MAX; count];
         let mut panels = Vec::new();
-        for (r, &is_free) in free.iter().enumerate() {
-            if !is_free {
+        for (r, triangles) in triangles_of.iter().enumerate() {
+            if triangles.is_empty() {
                 continue;
             }
-            let triangles: Vec<usize> = (0..regions.len()).filter(|&t| regions[t] as usize == r).collect();
-            if let Some(extent) = principal_extents(mesh, &triangles) {
+            if let Some(extent) = principal_extents(mesh, triangles) {
                 panel_of_region[r] = panels.len() as u32;
                 panels.push(extent);
             }
