@@ -1,23 +1,17 @@
 //! Renderer correctness on scenes with known answers, compared statistically (never against
 //! a stored image), and determinism across thread counts.
 
+mod common;
+
+use common::render::{go, settings};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
-use propsim::render::{
-    Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics, render,
-};
+use propsim::render::{Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics};
 use propsim::scene::{self, LoadOptions, World};
 
-fn settings(w: u32, spp: u32, max_depth: u32, integrator: IntegratorKind, seed: u64) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp, max_depth, integrator, seed, ..RenderSettings::default() }
-}
-
-fn go(scene: &RenderScene, cam: &Camera, s: &RenderSettings) -> Film {
-    render(scene, cam, s, &|_| {}).expect("renders").film
-}
-
 /// A closed box seen from inside: every wall has albedo `r` and emits `le` inwards.
-/// Every pixel converges to `le / (1 - r)` (the white furnace).
+/// Every pixel converges to `le / (1 - r)` (the white furnace), with every integrator
+/// that is unbiased for it.
 #[test]
 fn white_furnace_converges_to_le_over_one_minus_r() {
     for (r, le) in [(0.5f32, 1.0f32), (0.8, 0.5)] {
@@ -31,16 +25,19 @@ fn white_furnace_converges_to_le_over_one_minus_r() {
         let scene = RenderScene::from_parts(&accel, &mesh, &[], optics, &[], Vec3::ZERO);
         let cam =
             Camera::look_at(Vec3::new(1.0, 0.5, 0.7), Vec3::new(1.2, 3.0, 0.9), Vec3::Z, 90.0, 1.0).unwrap();
-        let film = go(&scene, &cam, &settings(24, 32, 200, IntegratorKind::Path, 1));
         let expect = le / (1.0 - r);
-        let mean = film.mean();
-        eprintln!("white furnace r {r}, Le {le}: mean {mean}, expected {expect}");
-        // 24*24*32 = 18k paths; the per-path spread is about the mean, so 1 % is > 5 sigma.
-        assert!(
-            (mean - Vec3::splat(expect)).abs().max_element() < 0.01 * expect,
-            "r {r}: {mean} vs {expect}"
-        );
-        assert!(film.pixels.iter().all(|p| p.is_finite() && p.min_element() > 0.0));
+        // Path tracing, and the integrators that trace from the lights too.
+        for integrator in [IntegratorKind::Path, IntegratorKind::Light, IntegratorKind::Bdpt] {
+            let film = go(&scene, &cam, &settings(24, 32, 200, integrator, 1));
+            let mean = film.mean();
+            eprintln!("white furnace r {r}, Le {le}, {integrator:?}: mean {mean}, expected {expect}");
+            // 24*24*32 = 18k paths; the per-path spread is about the mean, so 1 % is > 5 sigma.
+            assert!(
+                (mean - Vec3::splat(expect)).abs().max_element() < 0.01 * expect,
+                "{integrator:?} r {r}: {mean} vs {expect}"
+            );
+            assert!(film.pixels.iter().all(|p| p.is_finite() && p.min_element() > 0.0));
+        }
     }
 }
 

@@ -1,52 +1,16 @@
-//! The integrators that trace from the lights (`light`, `bdpt`), tested against closed forms
+//! The integrators that trace from the lights (`light`, `bdpt`), tested against closed forms (their white furnace is tests/render.rs's)
 //! and statistically against the path tracer (never against a stored image), and their
 //! determinism across thread counts.
 
+mod common;
+
+use common::render::{go, settings};
 use glam::{Vec2, Vec3};
-use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
-use propsim::render::{
-    Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics, render,
-};
+use propsim::core::{Accel, BuildQuality, Sphere};
+use propsim::render::{Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics};
 use propsim::scene::{self, LoadOptions, World};
 
 const SPLATTING: [IntegratorKind; 2] = [IntegratorKind::Light, IntegratorKind::Bdpt];
-
-fn settings(w: u32, spp: u32, max_depth: u32, integrator: IntegratorKind, seed: u64) -> RenderSettings {
-    RenderSettings { width: w, height: w, spp, max_depth, integrator, seed, ..RenderSettings::default() }
-}
-
-fn go(scene: &RenderScene, cam: &Camera, s: &RenderSettings) -> Film {
-    render(scene, cam, s, &|_| {}).expect("renders").film
-}
-
-/// The white furnace of tests/render.rs: a closed box whose walls have albedo `r` and emit
-/// `le`; every pixel converges to `le / (1 - r)`, with every integrator.
-#[test]
-fn white_furnace_converges_to_le_over_one_minus_r_with_every_integrator() {
-    for (r, le) in [(0.5f32, 1.0f32), (0.8, 0.5)] {
-        let mut mesh = TriangleMesh::default();
-        let id = mesh.surface_id("wall");
-        mesh.push_box(Vec3::ZERO, Vec3::new(2.0, 3.0, 1.5), 2, id);
-        mesh.flip_winding();
-        let accel = Accel::build(&mesh, vec![], BuildQuality::default());
-        let optics =
-            vec![SurfaceOptics { bsdf: Bsdf::Lambert { albedo: Vec3::splat(r) }, emission: Vec3::splat(le) }];
-        let scene = RenderScene::from_parts(&accel, &mesh, &[], optics, &[], Vec3::ZERO);
-        let cam =
-            Camera::look_at(Vec3::new(1.0, 0.5, 0.7), Vec3::new(1.2, 3.0, 0.9), Vec3::Z, 90.0, 1.0).unwrap();
-        let expect = le / (1.0 - r);
-        for integrator in SPLATTING {
-            let film = go(&scene, &cam, &settings(24, 32, 200, integrator, 1));
-            let mean = film.mean();
-            eprintln!("white furnace r {r}, Le {le}, {integrator:?}: mean {mean}, expected {expect}");
-            assert!(
-                (mean - Vec3::splat(expect)).abs().max_element() < 0.01 * expect,
-                "{integrator:?} r {r}: {mean} vs {expect}"
-            );
-            assert!(film.pixels.iter().all(|p| p.is_finite() && p.min_element() > 0.0));
-        }
-    }
-}
 
 /// The same seed gives bit-identical images on 1 and 2 threads for the splatting integrators,
 /// on a scene with glass, metal, an area light and depth of field (the light image is summed

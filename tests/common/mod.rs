@@ -1,6 +1,8 @@
 //! Helpers shared by the end-to-end tests: run the binary, check for a clean one-line error.
 #![allow(dead_code)]
 
+pub mod render;
+
 use std::path::Path;
 use std::process::Command;
 
