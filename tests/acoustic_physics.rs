@@ -157,6 +157,7 @@ fn a_single_ray_in_a_cube_gives_the_hand_computed_histogram() {
         directions: None,
         edge_scattering: None,
         receiver_directivity: &[],
+        ray_diffraction: None,
         scene_bounds: (Vec3::splat(-0.01), Vec3::splat(4.01)),
     };
     let spec = Launch {

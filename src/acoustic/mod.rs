@@ -16,6 +16,7 @@ pub mod job;
 pub mod metrics;
 pub mod options;
 pub mod output;
+pub mod ray_diffraction;
 pub mod room;
 pub mod simulate;
 pub mod spatial;

@@ -48,6 +48,10 @@ pub struct AcousticOptions {
     /// scattering of finite surfaces; docs/acoustics.md, Edge diffraction).
     #[arg(long)]
     pub no_diffraction: bool,
+    /// Switch off only the rays' diffraction near free edges (their stochastic bending;
+    /// docs/acoustics.md, Edge diffraction), keeping the edge paths and panel scattering.
+    #[arg(long)]
+    pub no_ray_diffraction: bool,
     /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
     /// higher is smoother late decay for more time.
     #[arg(long)]
@@ -114,6 +118,7 @@ impl Default for AcousticOptions {
             no_diffuse_rain: false,
             no_splitting: false,
             no_diffraction: false,
+            no_ray_diffraction: false,
             roulette_db: None,
             temperature_c: None,
             humidity_percent: None,

@@ -11,6 +11,7 @@ use super::directivity::Directivity;
 use super::edge_scattering::EdgeScattering;
 use super::image_source::{Arrival, specular_arrivals_from};
 use super::metrics::{BandMetrics, band_metrics_for_source, pair_warnings};
+use super::ray_diffraction::RayDiffraction;
 use super::room::reverberation_times;
 use super::spatial::Listener;
 use super::tracer::{SoundPropagation, Splitting, SurfaceAcoustics, TraceRecord};
@@ -107,8 +108,14 @@ pub struct AcousticSettings {
     /// this many copies, each of a share of its energy, where it keeps far more energy than
     /// the room's average decay leaves (1: no splitting).
     pub split_copies: u32,
-    /// Edge diffraction where the room has free edges ([`super::diffraction`]).
+    /// Edge diffraction where the room has free edges: the direct sound's first-order edge
+    /// paths ([`super::diffraction`]) and the scattering of finite panels
+    /// ([`super::edge_scattering`]).
     pub diffraction: bool,
+    /// Rays passing near free edges are bent ([`super::ray_diffraction`]): after their first
+    /// reflection while `diffraction`'s edge paths (with image sources) cover the direct
+    /// sound, from the source otherwise.
+    pub ray_diffraction: bool,
     /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
     /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
     pub ambisonic_order: u32,
@@ -163,6 +170,7 @@ impl Default for AcousticSettings {
             diffuse_rain: true,
             split_copies: SPLIT_COPIES,
             diffraction: true,
+            ray_diffraction: true,
             ambisonic_order: 0,
             binaural: false,
             hrtf: None,
@@ -501,9 +509,13 @@ pub fn simulate_on(
         if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
     // The free edges that diffract (none in a closed box: its edges are concave seen from
     // the air), and the finite panels they bound, which scatter by diffraction.
-    let wedges = if settings.diffraction { room_edges(world) } else { Vec::new() };
+    let edges = if settings.diffraction || settings.ray_diffraction { room_edges(world) } else { Vec::new() };
+    let wedges = if settings.diffraction { edges.clone() } else { Vec::new() };
     let mean_free_path_m = 4.0 * volume_m3 / areas.iter().sum::<f64>();
     let edge_scattering = EdgeScattering::of(&scene.mesh, &wedges, c, mean_free_path_m);
+    let edge_paths = settings.diffraction && settings.use_image_sources;
+    let ray_diffraction =
+        if settings.ray_diffraction { RayDiffraction::new(&edges, c, u32::from(edge_paths)) } else { None };
     // Which triangles each receiver sees whole: their rain needs no occlusion ray.
     let rain_in_view: Vec<Option<Vec<crate::core::visibility::PartsInView>>> = if settings.diffuse_rain {
         spheres.iter().map(|r| triangles_in_full_view(&scene.mesh, &scene.spheres, r.center)).collect()
@@ -543,6 +555,7 @@ pub fn simulate_on(
             directions: settings.keeps_directions().then(|| settings.direction_bins()),
             edge_scattering: edge_scattering.as_ref(),
             receiver_directivity: &receiver_directivity,
+            ray_diffraction: ray_diffraction.as_ref(),
         };
         let launch_spec = Launch {
             origin: Vec3::from(source.position),

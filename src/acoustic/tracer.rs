@@ -7,11 +7,12 @@ use glam::{Vec2, Vec3, Vec4};
 use super::directions::{CELLS, DirectionBins, cell_of};
 use super::directivity::Directivity;
 use super::edge_scattering::EdgeScattering;
+use super::ray_diffraction::RayDiffraction;
 use crate::core::TimeBins;
 use crate::core::accel::Accel;
 use crate::core::fixed::add_fixed;
 use crate::core::hit::{Hit, PrimitiveKind};
-use crate::core::launcher::{Bounce, Propagation};
+use crate::core::launcher::{Bounce, Deflection, Propagation};
 use crate::core::ray::Ray;
 use crate::core::rng::{Rng64, uniform};
 use crate::core::sampling::{cosine_hemisphere, to_world};
@@ -40,6 +41,9 @@ pub struct SoundRay {
     /// The ray's last reflection was diffuse: with diffuse rain on, that part of the sound
     /// reached the receivers by the rain, so this segment's crossings are not counted again.
     pub after_diffuse: bool,
+    /// The edge (index + 1) that bent this ray since its last reflection, 0 for none
+    /// ([`super::ray_diffraction`]: one bend between two reflections).
+    pub bent_by: u32,
     /// Copies this ray may still be split into, all its later splits together (see
     /// [`Splitting`]); a split into k copies gives each a k-th of it.
     pub copies_left: u32,
@@ -172,6 +176,8 @@ pub struct SoundPropagation<'a> {
     /// Per receiver, its directivity (`None` or missing: omni): every deposit is weighted by
     /// its sensitivity to the direction the sound comes from.
     pub receiver_directivity: &'a [Option<Directivity>],
+    /// Rays passing near free edges are bent ([`super::ray_diffraction`]); `None`: never.
+    pub ray_diffraction: Option<&'a RayDiffraction>,
 }
 
 impl Propagation for SoundPropagation<'_> {
@@ -246,6 +252,7 @@ impl Propagation for SoundPropagation<'_> {
             energy,
             specular_order: Some(0),
             after_diffuse: false,
+            bent_by: 0,
             copies_left: self.splitting.map_or(1, |s| s.copies),
         }
     }
@@ -280,6 +287,20 @@ impl Propagation for SoundPropagation<'_> {
         }
         ray.copies_left /= k;
         k
+    }
+
+    /// Stochastic diffraction near free edges ([`super::ray_diffraction`]).
+    #[inline(always)]
+    fn deflect(
+        &self,
+        sound: &SoundRay,
+        ray: &Ray,
+        length_m: f32,
+        reflections: u32,
+        rng: &mut Rng64,
+    ) -> Option<Deflection<SoundRay>> {
+        let (at_m, dir, payload) = self.ray_diffraction?.deflect(sound, ray, length_m, reflections, rng)?;
+        Some(Deflection { at_m, dir, payload })
     }
 
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds
@@ -416,6 +437,7 @@ impl Propagation for SoundPropagation<'_> {
         }
         ray_state.energy = join(lo, hi);
         ray_state.after_diffuse = diffuse;
+        ray_state.bent_by = 0;
         if diffuse {
             ray_state.specular_order = None;
             let local = cosine_hemisphere(Vec2::new(uniform(rng), uniform(rng)));

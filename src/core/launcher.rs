@@ -102,6 +102,34 @@ pub trait Propagation: Sync {
     fn split(&self, _payload: &mut Self::Payload, _path_m: f32) -> u32 {
         1
     }
+    /// A change in mid-flight (the stochastic diffraction of a ray that passes near an
+    /// edge): asked once per straight flight along `ray` over `(0, length_m]`, after
+    /// `reflections` surface interactions, before its deposits. With `Some(d)` the launcher
+    /// deposits `(0, d.at_m]` with the payload as it was; then, with `d.dir = Some(dir)`, the
+    /// ray goes on from there in `dir` with `d.payload`, without a surface interaction, and
+    /// with `d.dir = None` it keeps its line (and the hit already found) and only its
+    /// payload changes. The default never deflects.
+    #[inline(always)]
+    fn deflect(
+        &self,
+        _payload: &Self::Payload,
+        _ray: &Ray,
+        _length_m: f32,
+        _reflections: u32,
+        _rng: &mut Rng64,
+    ) -> Option<Deflection<Self::Payload>> {
+        None
+    }
+}
+
+/// A deflection in mid-flight ([`Propagation::deflect`]).
+pub struct Deflection<P> {
+    /// Where along the ray it happens, metres (in `(0, length)`).
+    pub at_m: f32,
+    /// The new unit direction (`None`: the same line).
+    pub dir: Option<Vec3>,
+    /// The payload after it.
+    pub payload: P,
 }
 
 /// Launch settings.
@@ -214,8 +242,10 @@ fn trace_block<P: Propagation>(
             while let Some(mut flight) = launched.take().or_else(|| copies.pop()) {
                 loop {
                     let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
-                    if last_segment(accel, prop, launch, accum, &flight, &ray) {
-                        break;
+                    match last_segment(accel, prop, launch, accum, &mut flight, &ray) {
+                        Last::Done => break,
+                        Last::Deflected => continue,
+                        Last::Trace => {}
                     }
                     let hit = accel.closest_hit(&ray);
                     if !step(prop, launch, accum, &mut flight, &ray, hit.as_ref(), &mut copies) {
@@ -232,9 +262,10 @@ fn trace_block<P: Propagation>(
     let mut hits: Vec<Option<Hit>> = Vec::with_capacity(flights.len());
     while !flights.is_empty() {
         // Last segments (see `last_segment`) end here, without the batch query.
-        flights.retain(|f| {
+        // (A deflected flight stays: its new ray is traced below.)
+        flights.retain_mut(|f| {
             let ray = Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray };
-            !last_segment(accel, prop, launch, accum, f, &ray)
+            last_segment(accel, prop, launch, accum, f, &ray) != Last::Done
         });
         rays.clear();
         rays.extend(flights.iter().map(|f| Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray }));
@@ -256,23 +287,41 @@ fn trace_block<P: Propagation>(
     }
 }
 
+/// What [`last_segment`] did with a flight.
+#[derive(PartialEq)]
+enum Last {
+    /// The flight's last segment was deposited: it is over.
+    Done,
+    /// It was deflected in mid-flight and goes on (its next ray is new).
+    Deflected,
+    /// It must be traced as usual.
+    Trace,
+}
+
 /// `f`'s segment along `ray` when it is its last, without a closest-hit query where none is
 /// needed: a ray that leaves the scene's box meets nothing, and on a segment after which no
 /// interaction may follow, a propagation that knows how far its deposits reach
-/// ([`Propagation::last_segment_reach`]) needs only an occlusion query. True if the segment
-/// was deposited (the flight is over); false if `ray` must be traced as usual.
+/// ([`Propagation::last_segment_reach`]) needs only an occlusion query. A ray leaving the
+/// box may still be deflected on its way out ([`Propagation::deflect`]).
 #[inline(always)]
 fn last_segment<P: Propagation>(
     accel: &Accel,
     prop: &P,
     launch: &Launch,
     accum: &mut P::Accum,
-    f: &Flight<P::Payload>,
+    f: &mut Flight<P::Payload>,
     ray: &Ray,
-) -> bool {
+) -> Last {
     let leaving = accel.leaves_bounds(ray);
     if !leaving && f.reflections < launch.max_reflections {
-        return false;
+        return Last::Trace;
+    }
+    if leaving {
+        match deflect(prop, accum, f, ray, ray.t_max) {
+            Bend::Turned => return Last::Deflected,
+            Bend::Reweighted => return Last::Done,
+            Bend::Straight => {}
+        }
     }
     match prop.last_segment_reach(&f.payload, ray) {
         Some(reach) => {
@@ -281,9 +330,51 @@ fn last_segment<P: Propagation>(
             prop.segment(accum, &f.payload, ray, if clear { reach } else { 0.0 }, f.path_m, f.reflections);
         }
         None if leaving => prop.segment(accum, &f.payload, ray, ray.t_max, f.path_m, f.reflections),
-        None => return false,
+        None => return Last::Trace,
     }
-    true
+    Last::Done
+}
+
+/// What [`deflect`] did.
+#[derive(PartialEq)]
+enum Bend {
+    /// Nothing: the flight's segment is still to be deposited.
+    Straight,
+    /// The flight was cut and turned: it goes on from the turning point.
+    Turned,
+    /// Only the payload changed in mid-flight: the whole segment was deposited, and the
+    /// flight goes on to the same hit.
+    Reweighted,
+}
+
+/// Asks whether `f`, flying along `ray` for `length_m`, is deflected on the way
+/// ([`Propagation::deflect`]); if so deposits the part before, and turns the flight or
+/// deposits the rest with the new payload.
+#[inline(always)]
+fn deflect<P: Propagation>(
+    prop: &P,
+    accum: &mut P::Accum,
+    f: &mut Flight<P::Payload>,
+    ray: &Ray,
+    length_m: f32,
+) -> Bend {
+    let Some(d) = prop.deflect(&f.payload, ray, length_m, f.reflections, &mut f.rng) else {
+        return Bend::Straight;
+    };
+    prop.segment(accum, &f.payload, ray, d.at_m, f.path_m, f.reflections);
+    f.payload = d.payload;
+    match d.dir {
+        Some(dir) => {
+            f.path_m += d.at_m;
+            f.ray = Ray::new(ray.at(d.at_m), dir);
+            Bend::Turned
+        }
+        None => {
+            let rest = Ray { origin: ray.at(d.at_m), t_max: ray.t_max - d.at_m, ..*ray };
+            prop.segment(accum, &f.payload, &rest, length_m - d.at_m, f.path_m + d.at_m, f.reflections);
+            Bend::Reweighted
+        }
+    }
 }
 
 /// One bounce of `flight` along `ray`, which met `hit` (or nothing): the segment's deposits,
@@ -300,7 +391,11 @@ fn step<P: Propagation>(
     copies: &mut Vec<Flight<P::Payload>>,
 ) -> bool {
     let length = hit.map_or(ray.t_max, |h| h.t);
-    prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections);
+    match deflect(prop, accum, f, ray, length) {
+        Bend::Turned => return true,
+        Bend::Reweighted => {}
+        Bend::Straight => prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections),
+    }
     let Some(hit) = hit else { return false };
     f.path_m += hit.t;
     if f.reflections >= launch.max_reflections {

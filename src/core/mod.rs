@@ -13,6 +13,7 @@ pub mod hit;
 pub mod launcher;
 pub mod leaf;
 pub mod mesh;
+pub mod near_segments;
 #[allow(unsafe_code)]
 pub mod queries;
 pub mod ray;

@@ -16,6 +16,12 @@ pub fn uniform_sphere(u: Vec2) -> Vec3 {
 /// Density of [`uniform_sphere`] per steradian.
 pub const UNIFORM_SPHERE_PDF: f32 = 1.0 / (4.0 * PI);
 
+/// A standard normal deviate from `u` in `[0,1)^2` (the Box-Muller transform; `u.x` is
+/// taken from the open side so the logarithm stays finite).
+pub fn standard_normal(u: Vec2) -> f32 {
+    (-2.0 * (1.0 - u.x).ln()).sqrt() * (TAU * u.y).cos()
+}
+
 /// A cosine-weighted direction about +z (Malley's method on a concentric disk).
 /// Density `cos(theta) / pi`.
 pub fn cosine_hemisphere(u: Vec2) -> Vec3 {

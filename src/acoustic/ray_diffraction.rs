@@ -1,0 +1,202 @@
+//! Stochastic diffraction of rays that pass near a free edge, for the late part: the ray is
+//! bent about the edge by a random angle whose spread grows as the ray passes closer, by the
+//! uncertainty relation (Heinisch and Chou 1971; Freniere, Gregory and Hassler 1999,
+//! \[Freniere1999\] in docs/references.md; in room acoustics, Stephenson's
+//! uncertainty-relation based diffraction). docs/acoustics.md (Edge diffraction) gives the
+//! model, its test against the exact half-plane and its cost.
+//!
+//! A ray passing an edge at distance `a` (measured across the edge) is confined, seen from
+//! the edge, to a slit of width about `a`: its transverse wavenumber is uncertain by
+//! `1 / (2a)`, so the tangent of its deflection angle about the edge is normal with standard
+//! deviation `tan sigma = 1 / (2 k a)`, `k` the wavenumber across the edge (`k sin(beta)`
+//! for a ray at angle `beta` to the edge; the component along the edge is kept, as on
+//! Keller's cone).
+//!
+//! A ray carries eight bands but has one direction, and each band's spread differs: the
+//! angle is drawn from the energy-weighted mixture of the bands' distributions, and each
+//! band's energy is then weighed by its own density over the mixture's. Every band's
+//! expected energy in every direction is exactly its own distribution's, and the ray's total
+//! energy is unchanged (as for the scattering choice in [`super::tracer`]).
+
+use glam::{DVec3, Vec2, Vec3};
+
+use super::tracer::SoundRay;
+use crate::core::near_segments::{NearSegments, Segment};
+use crate::core::ray::Ray;
+use crate::core::rng::{Rng64, uniform};
+use crate::core::sampling::standard_normal;
+use crate::core::wedges::Wedge;
+use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
+
+/// A ray is bent by an edge it passes within this many wavelengths of the lowest band (63
+/// Hz: 0.54 m): there that band's spread is `tan sigma = 1 / (4 pi REACH)`, 39 degrees, and
+/// each higher band's is half the one below (125 Hz: 22, 250 Hz: 11, 1 kHz: 2.8 degrees).
+/// The smaller bends of rays passing farther away are left out. The reach is what the
+/// bending costs: in a small room with many edges (BRAS CR2 has 218), most flights pass
+/// within a metre of one (docs/acoustics.md, Edge diffraction, gives the cost).
+pub const REACH_WAVELENGTHS: f32 = 0.1;
+
+/// Bends smaller than this keep the ray on its line (they move it by under 9 mm a metre);
+/// the bands' weights still change. It saves a trace for most of the high bands' bends.
+pub const STRAIGHT_DEGREES: f32 = 0.5;
+
+/// The edges that bend rays, and the bands' wavenumbers.
+pub struct RayDiffraction {
+    edges: NearSegments,
+    /// Wavenumber per band, rad/m.
+    k_per_m: [f32; BAND_COUNT],
+    /// Flights before this many reflections are left alone: with the deterministic edge
+    /// paths on, the direct sound's diffraction is theirs ([`super::diffraction`]).
+    pub from_reflection: u32,
+}
+
+impl RayDiffraction {
+    /// Rays near `wedges` (the room's free edges, [`super::diffraction::room_edges`]), for
+    /// sound at `speed_of_sound_m_s`; `None` when there are none.
+    pub fn new(wedges: &[Wedge], speed_of_sound_m_s: f64, from_reflection: u32) -> Option<Self> {
+        if wedges.is_empty() {
+            return None;
+        }
+        let k_per_m = std::array::from_fn(|b| {
+            (2.0 * std::f64::consts::PI * f64::from(OCTAVE_BANDS_HZ[b]) / speed_of_sound_m_s) as f32
+        });
+        let segments = wedges
+            .iter()
+            .map(|w| Segment {
+                start: w.start.as_vec3(),
+                dir: (w.end - w.start).normalize_or(DVec3::X).as_vec3(),
+                length_m: w.length as f32,
+            })
+            .collect();
+        let reach_m = REACH_WAVELENGTHS * (speed_of_sound_m_s / f64::from(OCTAVE_BANDS_HZ[0])) as f32;
+        Some(Self { edges: NearSegments::new(segments, reach_m), k_per_m, from_reflection })
+    }
+
+    /// Bends `sound`, flying along `ray` for `length_m`, at the edge it passes closest to:
+    /// the point, the new direction and the new payload, or `None` if it passes none within
+    /// reach (or was already bent since its last reflection). A bend under
+    /// [`STRAIGHT_DEGREES`] keeps the ray's line (`None` for the direction): only the bands'
+    /// weights change, and the flight needs no new trace.
+    pub fn deflect(
+        &self,
+        sound: &SoundRay,
+        ray: &Ray,
+        length_m: f32,
+        reflections: u32,
+        rng: &mut Rng64,
+    ) -> Option<(f32, Option<Vec3>, SoundRay)> {
+        if reflections < self.from_reflection || sound.bent_by != 0 {
+            return None;
+        }
+        let pass = self.edges.closest_pass(ray, length_m)?;
+        let total: f32 = sound.energy.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        // Each band's spread (the tangent's standard deviation).
+        let spread: [f64; BAND_COUNT] = std::array::from_fn(|b| {
+            1.0 / (2.0 * f64::from(self.k_per_m[b]) * f64::from(pass.sin_beta) * f64::from(pass.distance_m))
+        });
+        // A band by its share of the energy, then a tangent from its distribution.
+        let pick = uniform(rng) * total;
+        let mut band = BAND_COUNT - 1;
+        let mut acc = 0.0;
+        for (b, e) in sound.energy.iter().enumerate() {
+            acc += e;
+            if pick < acc {
+                band = b;
+                break;
+            }
+        }
+        let tangent = spread[band] * f64::from(standard_normal(Vec2::new(uniform(rng), uniform(rng))));
+        // Each band's density at that tangent (the common 1 / sqrt(2 pi) left out).
+        let density: [f64; BAND_COUNT] =
+            std::array::from_fn(|b| (-0.5 * (tangent / spread[b]).powi(2)).exp() / spread[b]);
+        let mixture: f64 =
+            sound.energy.iter().zip(&density).map(|(e, p)| f64::from(*e) * p).sum::<f64>() / f64::from(total);
+        if mixture.is_nan() || mixture <= 0.0 {
+            return None;
+        }
+        let energy = std::array::from_fn(|b| (f64::from(sound.energy[b]) * density[b] / mixture) as f32);
+        // Turn the direction about the edge by atan(tangent): the part along it is kept.
+        let e = self.edges.segments()[pass.segment].dir;
+        let along = ray.dir.dot(e) * e;
+        let across = ray.dir - along;
+        let angle = tangent.atan() as f32;
+        let (sin, cos) = angle.sin_cos();
+        let dir = (angle.abs() >= STRAIGHT_DEGREES.to_radians())
+            .then(|| (along + cos * across + sin * e.cross(across)).normalize());
+        let bent = SoundRay {
+            energy,
+            specular_order: None,
+            after_diffuse: false,
+            bent_by: pass.segment as u32 + 1,
+            copies_left: sound.copies_left,
+        };
+        Some((pass.at_m, dir, bent))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::core::rng::stream;
+
+    fn one_edge() -> RayDiffraction {
+        let edge = Segment { start: Vec3::new(0.0, 0.0, -10.0), dir: Vec3::Z, length_m: 20.0 };
+        RayDiffraction {
+            edges: NearSegments::new(vec![edge], 100.0),
+            k_per_m: std::array::from_fn(|b| 2.0 * std::f32::consts::PI * OCTAVE_BANDS_HZ[b] / 343.0),
+            from_reflection: 0,
+        }
+    }
+
+    fn sound(energy: [f32; BAND_COUNT]) -> SoundRay {
+        SoundRay { energy, specular_order: Some(0), after_diffuse: false, bent_by: 0, copies_left: 1 }
+    }
+
+    #[test]
+    fn each_band_spreads_as_the_uncertainty_relation_says_and_keeps_its_energy() {
+        // Rays across the edge at 0.1 m: the mean of each band's weighted tangent^2 is its
+        // spread^2 = 1 / (2 k a)^2, and the mean weight is 1 (energy kept per band). (Bends
+        // under half a degree keep the line; they add under 0.1 % to the highest band's.)
+        let rd = one_edge();
+        let ray = Ray::new(Vec3::new(-5.0, 0.1, 0.0), Vec3::X);
+        let n = 200_000;
+        let mut weight = [0.0f64; BAND_COUNT];
+        let mut tan2 = [0.0f64; BAND_COUNT];
+        for i in 0..n {
+            let mut rng = stream(3, 0, i);
+            let (at, dir, bent) = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
+            let dir = dir.unwrap_or(ray.dir);
+            assert!((at - 5.0).abs() < 1e-4 && (dir.length() - 1.0).abs() < 1e-5 && dir.z.abs() < 1e-6);
+            assert!((bent.energy.iter().sum::<f32>() - 8.0).abs() < 1e-3, "the total is kept");
+            let t = f64::from(dir.y / dir.x);
+            for b in 0..BAND_COUNT {
+                weight[b] += f64::from(bent.energy[b]);
+                tan2[b] += f64::from(bent.energy[b]) * t * t;
+            }
+        }
+        for b in 0..BAND_COUNT {
+            let expect = 1.0 / (2.0 * f64::from(rd.k_per_m[b]) * 0.1);
+            let (w, s) = (weight[b] / n as f64, (tan2[b] / weight[b]).sqrt());
+            assert!((w - 1.0).abs() < 0.03, "band {b}: mean weight {w}");
+            assert!((s / expect - 1.0).abs() < 0.05, "band {b}: spread {s} vs {expect}");
+        }
+    }
+
+    #[test]
+    fn a_slanted_ray_keeps_its_part_along_the_edge() {
+        let rd = one_edge();
+        let dir = Vec3::new(1.0, 0.0, 1.0).normalize();
+        let ray = Ray::new(Vec3::new(-2.0, 0.2, -2.0), dir);
+        let mut rng = stream(1, 0, 0);
+        let (_, out, _) = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
+        assert!((out.unwrap_or(dir).z - dir.z).abs() < 1e-6);
+        // Once bent, not again before a reflection; nor before `from_reflection`.
+        let bent = SoundRay { bent_by: 1, ..sound([1.0; BAND_COUNT]) };
+        assert!(rd.deflect(&bent, &ray, 10.0, 0, &mut rng).is_none());
+        let later = RayDiffraction { from_reflection: 1, ..one_edge() };
+        assert!(later.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).is_none());
+    }
+}
