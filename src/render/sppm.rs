@@ -66,6 +66,10 @@ const BLOCK: u64 = 4096;
 /// Most photons an iteration (photon streams are keyed by `iteration << 40 | photon`).
 pub const MAX_PHOTONS_PER_ITERATION: u64 = 1 << 40;
 
+/// Memory a photon-mapping render holds per pixel, bytes: the pixel's state (32), its camera
+/// pass result and visible point (2 x 112), the photon tally (56) and the film (12).
+pub const BYTES_PER_PIXEL: u64 = 324;
+
 /// The photon-mapping settings of a render (`sppm`, `ppm`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhotonSettings {
