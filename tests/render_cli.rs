@@ -99,7 +99,7 @@ fn bare_obj_gets_an_automatic_camera_and_exr_output_is_linear_float() {
     assert!(px.iter().filter(|p| p.0 + p.1 + p.2 > 0.0).count() > 120);
     assert!(px.iter().any(|p| p.0 > 3.0 * p.1 && p.0 > 0.01));
     // The flags override the automatic camera; every integrator runs.
-    for integrator in ["raycast", "whitted", "distributed", "path", "light", "bdpt"] {
+    for integrator in ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm"] {
         let (ok, _, err) = propsim_in(
             dir.path(),
             &[
@@ -157,6 +157,14 @@ fn bad_inputs_give_one_line_errors() {
     assert_clean_error(&with(&["--fov-deg", "0"]), &["field of view"]);
     assert_clean_error(&with(&["--fov-deg", "NaN"]), &["field of view"]);
     assert_clean_error(&with(&["--max-depth", "5000"]), &["max depth"]);
+    assert_clean_error(
+        &with(&["--integrator", "sppm", "--sppm-radius", "0"]),
+        &["--sppm-radius 0", "positive"],
+    );
+    assert_clean_error(&with(&["--integrator", "sppm", "--sppm-radius", "-1"]), &["--sppm-radius -1"]);
+    assert_clean_error(&with(&["--integrator", "ppm", "--photons", "0"]), &["--photons 0"]);
+    assert_clean_error(&with(&["--integrator", "sppm", "--iterations", "0"]), &["--iterations 0"]);
+    assert_clean_error(&with(&["--photons", "100"]), &["--photons", "sppm"]);
     assert_clean_error(&with(&["-o", "picture.jpg"]), &["picture.jpg", ".png"]);
     assert_clean_error(&with(&["-o", "picture"]), &["picture", "extension"]);
     assert_clean_error(&["render", "missing.toml"], &["missing.toml"]);

@@ -20,7 +20,8 @@ pub struct BenchRenderArgs {
     pub height: u32,
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,
-    /// raycast, whitted, distributed, path, light or bdpt.
+    /// raycast, whitted, distributed, path, light, bdpt, sppm or ppm (spp = iterations, one
+    /// photon a pixel an iteration).
     #[arg(long, default_value = "path")]
     pub integrator: String,
     /// Timed runs; the median is reported.
@@ -46,6 +47,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         background: None,
         display: Default::default(),
         clamp_indirect: None,
+        photons: Default::default(),
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(
@@ -61,10 +63,10 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
     let mut runs = Vec::new();
     for _ in 0..args.repeat {
         let out = render(&rs, &cam, &settings, &|_| {}).map_err(|e| anyhow::anyhow!("{e}"))?;
-        runs.push((out.seconds, out.samples, out.rays, out.film.mean()));
+        runs.push((out.seconds, out.samples, out.rays, out.film.mean(), out.photons));
     }
     runs.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let (secs, samples, rays, mean) = runs[runs.len() / 2];
+    let (secs, samples, rays, mean, photons) = runs[runs.len() / 2];
     crate::outln!(
         "bench render: {} {}x{} spp {} max depth {} {} threads",
         args.scene.display(),
@@ -77,6 +79,9 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
     crate::outln!("  integrator    {}", integrator.name());
     crate::outln!("  wall time     {secs:.3} s (median of {})", args.repeat);
     crate::outln!("  samples/s     {:.2} M", samples as f64 / secs / 1e6);
+    if photons > 0 {
+        crate::outln!("  photons/s     {:.2} M", photons as f64 / secs / 1e6);
+    }
     crate::outln!(
         "  rays/s        {:.2} Mrays/s ({:.2} rays per sample)",
         rays as f64 / secs / 1e6,

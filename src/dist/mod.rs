@@ -28,6 +28,8 @@ trait Backend {
     /// Element-wise sum over all ranks into rank 0's `data` (others' `data` is unchanged).
     fn sum_u64(&self, data: &mut [u64]);
     fn sum_u32(&self, data: &mut [u32]);
+    /// Element-wise sum over all ranks into every rank's `data`.
+    fn sum_u64_everywhere(&self, data: &mut [u64]);
     /// The largest `value` of any rank, on every rank.
     fn max_u64_everywhere(&self, value: u64) -> u64;
     /// Waits until every rank gets here.
@@ -46,6 +48,7 @@ impl Backend for Solo {
     }
     fn sum_u64(&self, _: &mut [u64]) {}
     fn sum_u32(&self, _: &mut [u32]) {}
+    fn sum_u64_everywhere(&self, _: &mut [u64]) {}
     fn max_u64_everywhere(&self, value: u64) -> u64 {
         value
     }
@@ -170,6 +173,24 @@ impl Cluster {
         if self.is_root() {
             from_limb_sums(&limbs, data);
         }
+    }
+
+    /// Element-wise sum over all processes into every process's `data` (for state that
+    /// every rank must hold and update alike, such as SPPM's per-pixel photon statistics).
+    pub fn sum_u64_everywhere(&self, data: &mut [u64]) {
+        self.timed(data.len() * 8, || {
+            data.chunks_mut(CHUNK).for_each(|c| self.backend.sum_u64_everywhere(c))
+        });
+    }
+
+    /// [`Cluster::sum_u128`] into every process's `data`.
+    pub fn sum_u128_everywhere(&self, data: &mut [u128]) {
+        if self.size() == 1 {
+            return;
+        }
+        let mut limbs = to_limbs(data);
+        self.sum_u64_everywhere(&mut limbs);
+        from_limb_sums(&limbs, data);
     }
 
     /// Gathers floats of which each element was computed by exactly one process (the others

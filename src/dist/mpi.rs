@@ -1,5 +1,6 @@
 //! The MPI transport (rsmpi): `MPI_Reduce` with `MPI_SUM` to rank 0 on the world communicator,
-//! and `MPI_Allreduce` with `MPI_MAX` for the sizes every rank must agree on.
+//! and `MPI_Allreduce` with `MPI_MAX` for the sizes every rank must agree on and with `MPI_SUM`
+//! for state every rank updates alike.
 
 use mpi::Threading;
 use mpi::collective::SystemOperation;
@@ -53,6 +54,10 @@ impl Backend for MpiBackend {
     }
     fn sum_u32(&self, data: &mut [u32]) {
         self.sum(data);
+    }
+    fn sum_u64_everywhere(&self, data: &mut [u64]) {
+        let send = data.to_vec();
+        self.world.all_reduce_into(&send[..], data, SystemOperation::sum());
     }
     fn max_u64_everywhere(&self, value: u64) -> u64 {
         let mut out = 0u64;

@@ -28,9 +28,13 @@ pub struct RenderPlan {
 pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow::Result<RenderPlan> {
     let s = settings(world, options).with_context(|| scene_label.to_string())?;
     let pixels = u64::from(s.width) * u64::from(s.height);
+    let bytes_per_pixel = match s.integrator {
+        IntegratorKind::Sppm | IntegratorKind::Ppm => super::sppm::BYTES_PER_PIXEL,
+        _ => BYTES_PER_PIXEL,
+    };
     crate::io::memory::check_fits(
         &format!("a {}x{} render", s.width, s.height),
-        pixels * BYTES_PER_PIXEL + world.accel.memory_bytes() as u64,
+        pixels * bytes_per_pixel + world.accel.memory_bytes() as u64,
     )?;
     let camera =
         camera(world, options, s.width as f32 / s.height as f32).with_context(|| scene_label.to_string())?;

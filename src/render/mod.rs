@@ -1,5 +1,6 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
-//! `distributed`, `path`, and from the lights `light` and `bdpt`) over the shared tracing core.
+//! `distributed`, `path`, from the lights `light` and `bdpt`, and the photon mappers `sppm` and
+//! `ppm`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -28,9 +29,11 @@ pub mod light;
 pub mod lights;
 pub mod options;
 pub mod path;
+pub mod photon_grid;
 pub mod raycast;
 pub mod sampler;
 pub mod splat;
+pub mod sppm;
 pub mod whitted;
 
 use std::str::FromStr;
@@ -84,11 +87,17 @@ pub enum IntegratorKind {
     Light,
     /// Bidirectional path tracing, every connection strategy weighted by MIS (Veach 1997).
     Bdpt,
+    /// Stochastic progressive photon mapping (Hachisuka and Jensen 2009), `spp` iterations.
+    Sppm,
+    /// Progressive photon mapping (Hachisuka, Ogaki, Jensen 2008): SPPM with visible points
+    /// fixed after the first camera pass.
+    Ppm,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 6] = ["raycast", "whitted", "distributed", "path", "light", "bdpt"];
+    pub const NAMES: [&'static str; 8] =
+        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm"];
 
     /// The integrator's name.
     pub fn name(self) -> &'static str {
@@ -117,6 +126,8 @@ impl FromStr for IntegratorKind {
             "path" => Ok(Self::Path),
             "light" => Ok(Self::Light),
             "bdpt" => Ok(Self::Bdpt),
+            "sppm" => Ok(Self::Sppm),
+            "ppm" => Ok(Self::Ppm),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -146,6 +157,8 @@ pub struct RenderSettings {
     /// to it. Biased (energy is lost) but removes fireflies; `None` (the default) leaves every
     /// sample as it is.
     pub clamp_indirect: Option<f32>,
+    /// Photon-mapping settings (`sppm`, `ppm`; the others ignore them).
+    pub photons: sppm::PhotonSettings,
 }
 
 impl Default for RenderSettings {
@@ -160,6 +173,7 @@ impl Default for RenderSettings {
             background: None,
             display: film::Display::default(),
             clamp_indirect: None,
+            photons: sppm::PhotonSettings::default(),
         }
     }
 }
@@ -188,6 +202,7 @@ impl RenderSettings {
         {
             return Err(format!("indirect clamp {c}: must be a finite luminance, 0 or more"));
         }
+        self.photons.validate()?;
         self.display.validate()
     }
 }
@@ -451,6 +466,8 @@ pub struct RenderOutput {
     pub samples: u64,
     /// Rays traced: closest-hit and shadow queries.
     pub rays: u64,
+    /// Photons traced from the lights (`sppm`, `ppm`; 0 for the others).
+    pub photons: u64,
     /// Wall time, seconds.
     pub seconds: f64,
 }
@@ -474,7 +491,11 @@ pub fn radiance(
         IntegratorKind::Distributed => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::StopAtDiffuse, clamp)
         }
-        IntegratorKind::Path | IntegratorKind::Light | IntegratorKind::Bdpt => {
+        IntegratorKind::Path
+        | IntegratorKind::Light
+        | IntegratorKind::Bdpt
+        | IntegratorKind::Sppm
+        | IntegratorKind::Ppm => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -572,6 +593,9 @@ pub fn render_on(
     match settings.integrator {
         IntegratorKind::Light => return Ok(light::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Bdpt => return Ok(bdpt::render_on(cluster, scene, camera, settings, progress)),
+        IntegratorKind::Sppm | IntegratorKind::Ppm => {
+            return Ok(sppm::render_on(cluster, scene, camera, settings, progress));
+        }
         _ => {}
     }
     let (w, h) = (settings.width, settings.height);
@@ -629,6 +653,7 @@ pub fn render_on(
         film,
         samples: u64::from(w) * u64::from(h) * u64::from(settings.spp),
         rays,
+        photons: 0,
         seconds: start.elapsed().as_secs_f64(),
     }))
 }

@@ -8,6 +8,7 @@ use glam::Vec3;
 use serde::Deserialize;
 
 use super::film::Display;
+use super::sppm::PhotonSettings;
 use super::{Camera, IntegratorKind, RenderSettings};
 use crate::scene::World;
 
@@ -34,8 +35,9 @@ pub struct RenderOptions {
     /// Maximum bounces; 1 = direct light only (default: the scene's, else 8).
     #[arg(long = "max-depth")]
     pub max_depth: Option<u32>,
-    /// raycast, whitted, distributed, path, light (light tracing) or bdpt (bidirectional path
-    /// tracing) (default: the scene's, else path).
+    /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
+    /// tracing), sppm (stochastic progressive photon mapping) or ppm (progressive photon
+    /// mapping) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -64,6 +66,17 @@ pub struct RenderOptions {
     /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
     #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
     pub clamp_indirect: Option<f32>,
+    /// sppm and ppm: iterations, each one camera sample a pixel and one photon pass (default:
+    /// the samples per pixel, as pbrt-v4 reads its pixel samples).
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// sppm and ppm: photons traced an iteration (default: one a pixel, as pbrt-v4).
+    #[arg(long)]
+    pub photons: Option<u64>,
+    /// sppm and ppm: initial gather radius, metres; it shrinks as photons arrive (alpha 2/3)
+    /// (default: 1 % of the diagonal of the box around the visible points).
+    #[arg(long = "sppm-radius", value_name = "METRES", allow_hyphen_values = true)]
+    pub sppm_radius_m: Option<f32>,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -80,16 +93,33 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
     let exposure_ev = options.exposure_ev.or(desc.exposure_ev).unwrap_or(d.display.exposure_ev);
     let display = Display { exposure_ev, tone_map };
     display.validate().map_err(|e| anyhow!("--exposure: {e}"))?;
+    let photon_mapping = matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm);
+    for (flag, given) in [
+        ("--iterations", options.iterations.is_some()),
+        ("--photons", options.photons.is_some()),
+        ("--sppm-radius", options.sppm_radius_m.is_some()),
+    ] {
+        if given && !photon_mapping {
+            anyhow::bail!("{flag} applies to --integrator sppm and ppm only, not {integrator_name}");
+        }
+    }
+    if options.iterations == Some(0) {
+        anyhow::bail!("--iterations 0: must be between 1 and {}", super::MAX_SPP);
+    }
+    let photons =
+        PhotonSettings { initial_radius_m: options.sppm_radius_m, photons_per_iteration: options.photons };
+    photons.validate().map_err(|e| anyhow!("{e}"))?;
     let s = RenderSettings {
         width: options.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
         height: options.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
-        spp: options.spp.or(desc.spp).unwrap_or(d.spp),
+        spp: options.iterations.or(options.spp).or(desc.spp).unwrap_or(d.spp),
         max_depth: options.max_depth.or(desc.max_depth).unwrap_or(d.max_depth),
         integrator,
         seed: options.seed,
         background: None,
         display,
         clamp_indirect: options.clamp_indirect,
+        photons,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
