@@ -36,6 +36,11 @@ use crate::scene::materials::{BAND_COUNT, OCTAVE_BANDS_HZ};
 /// within a metre of one (docs/acoustics.md, Edge diffraction, gives the cost).
 pub const REACH_WAVELENGTHS: f32 = 0.1;
 
+/// Bands whose spread at a pass is under this go on straight, unbent and unweighed: their
+/// bends would be within a few degrees, and leaving them out of the weighing keeps their
+/// variance low (a ray's high bands then never trade energy with its low ones there).
+pub const NARROW_DEGREES: f32 = 2.0;
+
 /// Bends smaller than this keep the ray on its line (they move it by under 9 mm a metre);
 /// the bands' weights still change. It saves a trace for most of the high bands' bends.
 pub const STRAIGHT_DEGREES: f32 = 0.5;
@@ -72,11 +77,11 @@ impl RayDiffraction {
         Some(Self { edges: NearSegments::new(segments, reach_m), k_per_m, from_reflection })
     }
 
-    /// Bends `sound`, flying along `ray` for `length_m`, at the edge it passes closest to:
-    /// the point, the new direction and the new payload, or `None` if it passes none within
-    /// reach (or was already bent since its last reflection). A bend under
-    /// [`STRAIGHT_DEGREES`] keeps the ray's line (`None` for the direction): only the bands'
-    /// weights change, and the flight needs no new trace.
+    /// Bends `sound`, flying along `ray` for `length_m`, at the edge it passes closest to,
+    /// or `None` if it passes none within reach (or was already bent since its last
+    /// reflection). The bands whose spread there is under [`NARROW_DEGREES`] go on straight,
+    /// unchanged; the others are bent together (module docs), as a copy of the ray when the
+    /// straight part is not empty.
     pub fn deflect(
         &self,
         sound: &SoundRay,
@@ -84,24 +89,27 @@ impl RayDiffraction {
         length_m: f32,
         reflections: u32,
         rng: &mut Rng64,
-    ) -> Option<(f32, Option<Vec3>, SoundRay)> {
+    ) -> Option<Bent> {
         if reflections < self.from_reflection || sound.bent_by != 0 {
             return None;
         }
         let pass = self.edges.closest_pass(ray, length_m)?;
-        let total: f32 = sound.energy.iter().sum();
-        if total.is_nan() || total <= 0.0 {
-            return None;
-        }
         // Each band's spread (the tangent's standard deviation).
         let spread: [f64; BAND_COUNT] = std::array::from_fn(|b| {
             1.0 / (2.0 * f64::from(self.k_per_m[b]) * f64::from(pass.sin_beta) * f64::from(pass.distance_m))
         });
+        let narrow = f64::from(NARROW_DEGREES.to_radians().tan());
+        let wide: [f32; BAND_COUNT] =
+            std::array::from_fn(|b| if spread[b] >= narrow { sound.energy[b] } else { 0.0 });
+        let total: f32 = wide.iter().sum();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
         // A band by its share of the energy, then a tangent from its distribution.
         let pick = uniform(rng) * total;
         let mut band = BAND_COUNT - 1;
         let mut acc = 0.0;
-        for (b, e) in sound.energy.iter().enumerate() {
+        for (b, e) in wide.iter().enumerate() {
             acc += e;
             if pick < acc {
                 band = b;
@@ -113,11 +121,11 @@ impl RayDiffraction {
         let density: [f64; BAND_COUNT] =
             std::array::from_fn(|b| (-0.5 * (tangent / spread[b]).powi(2)).exp() / spread[b]);
         let mixture: f64 =
-            sound.energy.iter().zip(&density).map(|(e, p)| f64::from(*e) * p).sum::<f64>() / f64::from(total);
+            wide.iter().zip(&density).map(|(e, p)| f64::from(*e) * p).sum::<f64>() / f64::from(total);
         if mixture.is_nan() || mixture <= 0.0 {
             return None;
         }
-        let energy = std::array::from_fn(|b| (f64::from(sound.energy[b]) * density[b] / mixture) as f32);
+        let energy = std::array::from_fn(|b| (f64::from(wide[b]) * density[b] / mixture) as f32);
         // Turn the direction about the edge by atan(tangent): the part along it is kept.
         let e = self.edges.segments()[pass.segment].dir;
         let along = ray.dir.dot(e) * e;
@@ -126,15 +134,40 @@ impl RayDiffraction {
         let (sin, cos) = angle.sin_cos();
         let dir = (angle.abs() >= STRAIGHT_DEGREES.to_radians())
             .then(|| (along + cos * across + sin * e.cross(across)).normalize());
-        let bent = SoundRay {
+        let part = |energy| SoundRay {
             energy,
             specular_order: None,
             after_diffuse: false,
             bent_by: pass.segment as u32 + 1,
             copies_left: sound.copies_left,
         };
-        Some((pass.at_m, dir, bent))
+        let narrow: [f32; BAND_COUNT] = std::array::from_fn(|b| sound.energy[b] - wide[b]);
+        if dir.is_none() {
+            // Both parts keep the line: one ray carries them.
+            let whole = std::array::from_fn(|b| energy[b] + narrow[b]);
+            return Some(Bent { at_m: pass.at_m, dir, bent: part(whole), straight: None });
+        }
+        // The straight part is the ray as it was, but for the bands that left it.
+        let straight = narrow.iter().any(|e| *e > 0.0).then(|| SoundRay {
+            specular_order: sound.specular_order,
+            after_diffuse: sound.after_diffuse,
+            ..part(narrow)
+        });
+        Some(Bent { at_m: pass.at_m, dir, bent: part(energy), straight })
     }
+}
+
+/// A ray bent at an edge ([`RayDiffraction::deflect`]).
+pub struct Bent {
+    /// Where along the ray, metres.
+    pub at_m: f32,
+    /// The bent part's new direction (`None`: its bend is under [`STRAIGHT_DEGREES`] and it
+    /// keeps the line).
+    pub dir: Option<Vec3>,
+    /// The bent part: the wide bands, weighed.
+    pub bent: SoundRay,
+    /// The part that goes on straight, unchanged (the narrow bands), if any.
+    pub straight: Option<SoundRay>,
 }
 
 #[cfg(test)]
@@ -157,18 +190,19 @@ mod tests {
 
     #[test]
     fn each_band_spreads_as_the_uncertainty_relation_says_and_keeps_its_energy() {
-        // Rays across the edge at 0.1 m: the mean of each band's weighted tangent^2 is its
+        // Rays across the edge at 0.05 m: the mean of each band's weighted tangent^2 is its
         // spread^2 = 1 / (2 k a)^2, and the mean weight is 1 (energy kept per band). (Bends
         // under half a degree keep the line; they add under 0.1 % to the highest band's.)
         let rd = one_edge();
-        let ray = Ray::new(Vec3::new(-5.0, 0.1, 0.0), Vec3::X);
+        let ray = Ray::new(Vec3::new(-5.0, 0.05, 0.0), Vec3::X);
         let n = 200_000;
         let mut weight = [0.0f64; BAND_COUNT];
         let mut tan2 = [0.0f64; BAND_COUNT];
         for i in 0..n {
             let mut rng = stream(3, 0, i);
-            let (at, dir, bent) = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
-            let dir = dir.unwrap_or(ray.dir);
+            let b = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
+            let (at, dir, bent) = (b.at_m, b.dir.unwrap_or(ray.dir), b.bent);
+            assert!(b.straight.is_none(), "every band is wide 0.05 m from the edge");
             assert!((at - 5.0).abs() < 1e-4 && (dir.length() - 1.0).abs() < 1e-5 && dir.z.abs() < 1e-6);
             assert!((bent.energy.iter().sum::<f32>() - 8.0).abs() < 1e-3, "the total is kept");
             let t = f64::from(dir.y / dir.x);
@@ -178,7 +212,7 @@ mod tests {
             }
         }
         for b in 0..BAND_COUNT {
-            let expect = 1.0 / (2.0 * f64::from(rd.k_per_m[b]) * 0.1);
+            let expect = 1.0 / (2.0 * f64::from(rd.k_per_m[b]) * 0.05);
             let (w, s) = (weight[b] / n as f64, (tan2[b] / weight[b]).sqrt());
             assert!((w - 1.0).abs() < 0.03, "band {b}: mean weight {w}");
             assert!((s / expect - 1.0).abs() < 0.05, "band {b}: spread {s} vs {expect}");
@@ -191,8 +225,16 @@ mod tests {
         let dir = Vec3::new(1.0, 0.0, 1.0).normalize();
         let ray = Ray::new(Vec3::new(-2.0, 0.2, -2.0), dir);
         let mut rng = stream(1, 0, 0);
-        let (_, out, _) = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
-        assert!((out.unwrap_or(dir).z - dir.z).abs() < 1e-6);
+        let b = rd.deflect(&sound([1.0; BAND_COUNT]), &ray, 10.0, 0, &mut rng).unwrap();
+        assert!((b.dir.unwrap_or(dir).z - dir.z).abs() < 1e-6);
+        // 2 m from the edge the bands from 500 Hz up are narrow (spread 1.6 degrees at 500
+        // Hz) and go on straight, unweighed.
+        let far = Ray::new(Vec3::new(-2.0, 2.0, 0.0), Vec3::X);
+        let b = rd.deflect(&sound([1.0; BAND_COUNT]), &far, 10.0, 0, &mut rng).unwrap();
+        let straight = b.straight.unwrap();
+        assert_eq!(straight.energy, [0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 1.0]);
+        assert!(b.bent.energy[3..].iter().all(|e| *e == 0.0));
+        assert!((b.bent.energy.iter().sum::<f32>() - 3.0).abs() < 1e-4);
         // Once bent, not again before a reflection; nor before `from_reflection`.
         let bent = SoundRay { bent_by: 1, ..sound([1.0; BAND_COUNT]) };
         assert!(rd.deflect(&bent, &ray, 10.0, 0, &mut rng).is_none());

@@ -299,8 +299,8 @@ impl Propagation for SoundPropagation<'_> {
         reflections: u32,
         rng: &mut Rng64,
     ) -> Option<Deflection<SoundRay>> {
-        let (at_m, dir, payload) = self.ray_diffraction?.deflect(sound, ray, length_m, reflections, rng)?;
-        Some(Deflection { at_m, dir, payload })
+        let b = self.ray_diffraction?.deflect(sound, ray, length_m, reflections, rng)?;
+        Some(Deflection { at_m: b.at_m, dir: b.dir, payload: b.bent, straight: b.straight })
     }
 
     /// Chord-length estimator: a ray crossing a receiver of volume V along a chord l adds

@@ -108,7 +108,10 @@ pub trait Propagation: Sync {
     /// deposits `(0, d.at_m]` with the payload as it was; then, with `d.dir = Some(dir)`, the
     /// ray goes on from there in `dir` with `d.payload`, without a surface interaction, and
     /// with `d.dir = None` it keeps its line (and the hit already found) and only its
-    /// payload changes. The default never deflects.
+    /// payload changes. With `d.straight = Some(p)` the ray also parts: the flight keeps its
+    /// line with payload `p`, and a copy (its own random stream, forked) carries `d.payload`
+    /// in `d.dir` (with `d.dir = None`, `d.payload` must hold both and `straight` is
+    /// ignored). The default never deflects.
     #[inline(always)]
     fn deflect(
         &self,
@@ -130,6 +133,8 @@ pub struct Deflection<P> {
     pub dir: Option<Vec3>,
     /// The payload after it.
     pub payload: P,
+    /// A part that goes on along the old line, unchanged in direction (`None`: none).
+    pub straight: Option<P>,
 }
 
 /// Launch settings.
@@ -242,7 +247,7 @@ fn trace_block<P: Propagation>(
             while let Some(mut flight) = launched.take().or_else(|| copies.pop()) {
                 loop {
                     let ray = Ray { t_max: (launch.max_path_m - flight.path_m).max(0.0), ..flight.ray };
-                    match last_segment(accel, prop, launch, accum, &mut flight, &ray) {
+                    match last_segment(accel, prop, launch, accum, &mut flight, &ray, &mut copies) {
                         Last::Done => break,
                         Last::Deflected => continue,
                         Last::Trace => {}
@@ -265,7 +270,7 @@ fn trace_block<P: Propagation>(
         // (A deflected flight stays: its new ray is traced below.)
         flights.retain_mut(|f| {
             let ray = Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray };
-            last_segment(accel, prop, launch, accum, f, &ray) != Last::Done
+            last_segment(accel, prop, launch, accum, f, &ray, &mut copies) != Last::Done
         });
         rays.clear();
         rays.extend(flights.iter().map(|f| Ray { t_max: (launch.max_path_m - f.path_m).max(0.0), ..f.ray }));
@@ -311,13 +316,14 @@ fn last_segment<P: Propagation>(
     accum: &mut P::Accum,
     f: &mut Flight<P::Payload>,
     ray: &Ray,
+    copies: &mut Vec<Flight<P::Payload>>,
 ) -> Last {
     let leaving = accel.leaves_bounds(ray);
     if !leaving && f.reflections < launch.max_reflections {
         return Last::Trace;
     }
     if leaving {
-        match deflect(prop, accum, f, ray, ray.t_max) {
+        match deflect(prop, accum, f, ray, ray.t_max, copies) {
             Bend::Turned => return Last::Deflected,
             Bend::Reweighted => return Last::Done,
             Bend::Straight => {}
@@ -357,19 +363,30 @@ fn deflect<P: Propagation>(
     f: &mut Flight<P::Payload>,
     ray: &Ray,
     length_m: f32,
+    copies: &mut Vec<Flight<P::Payload>>,
 ) -> Bend {
     let Some(d) = prop.deflect(&f.payload, ray, length_m, f.reflections, &mut f.rng) else {
         return Bend::Straight;
     };
     prop.segment(accum, &f.payload, ray, d.at_m, f.path_m, f.reflections);
-    f.payload = d.payload;
-    match d.dir {
-        Some(dir) => {
+    match (d.dir, d.straight) {
+        (Some(dir), Some(straight)) => {
+            let rng = fork(&mut f.rng);
+            let turned = Ray::new(ray.at(d.at_m), dir);
+            copies.push(Flight { ray: turned, payload: d.payload, path_m: f.path_m + d.at_m, rng, ..*f });
+            f.payload = straight;
+            let rest = Ray { origin: ray.at(d.at_m), t_max: ray.t_max - d.at_m, ..*ray };
+            prop.segment(accum, &f.payload, &rest, length_m - d.at_m, f.path_m + d.at_m, f.reflections);
+            Bend::Reweighted
+        }
+        (Some(dir), None) => {
+            f.payload = d.payload;
             f.path_m += d.at_m;
             f.ray = Ray::new(ray.at(d.at_m), dir);
             Bend::Turned
         }
-        None => {
+        (None, _) => {
+            f.payload = d.payload;
             let rest = Ray { origin: ray.at(d.at_m), t_max: ray.t_max - d.at_m, ..*ray };
             prop.segment(accum, &f.payload, &rest, length_m - d.at_m, f.path_m + d.at_m, f.reflections);
             Bend::Reweighted
@@ -391,7 +408,7 @@ fn step<P: Propagation>(
     copies: &mut Vec<Flight<P::Payload>>,
 ) -> bool {
     let length = hit.map_or(ray.t_max, |h| h.t);
-    match deflect(prop, accum, f, ray, length) {
+    match deflect(prop, accum, f, ray, length, copies) {
         Bend::Turned => return true,
         Bend::Reweighted => {}
         Bend::Straight => prop.segment(accum, &f.payload, ray, length, f.path_m, f.reflections),
