@@ -20,7 +20,7 @@ pub struct BenchRenderArgs {
     pub height: u32,
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,
-    /// raycast, whitted, distributed, path, light or bdpt.
+    /// raycast, whitted, distributed, path, light, bdpt or radiosity.
     #[arg(long, default_value = "path")]
     pub integrator: String,
     /// Timed runs; the median is reported.
@@ -46,6 +46,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         background: None,
         display: Default::default(),
         clamp_indirect: None,
+        radiosity: Default::default(),
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(

@@ -34,8 +34,8 @@ pub struct RenderOptions {
     /// Maximum bounces; 1 = direct light only (default: the scene's, else 8).
     #[arg(long = "max-depth")]
     pub max_depth: Option<u32>,
-    /// raycast, whitted, distributed, path, light (light tracing) or bdpt (bidirectional path
-    /// tracing) (default: the scene's, else path).
+    /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
+    /// tracing) or radiosity (hierarchical radiosity) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -64,6 +64,9 @@ pub struct RenderOptions {
     /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
     #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
     pub clamp_indirect: Option<f32>,
+    /// The radiosity integrator's options.
+    #[command(flatten)]
+    pub radiosity: super::radiosity::RadiosityOptions,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -90,6 +93,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         background: None,
         display,
         clamp_indirect: options.clamp_indirect,
+        radiosity: options.radiosity.clone(),
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
