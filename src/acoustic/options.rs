@@ -48,10 +48,11 @@ pub struct AcousticOptions {
     /// scattering of finite surfaces; docs/acoustics.md, Edge diffraction).
     #[arg(long)]
     pub no_diffraction: bool,
-    /// Switch off only the rays' diffraction near free edges (their stochastic bending;
-    /// docs/acoustics.md, Edge diffraction), keeping the edge paths and panel scattering.
+    /// Bend rays that pass near free edges (stochastic diffraction for the late part;
+    /// docs/acoustics.md, Edge diffraction): off by default for now, as it doubles the run
+    /// in rooms with many edges and makes the late decay noisier at a given ray count.
     #[arg(long)]
-    pub no_ray_diffraction: bool,
+    pub ray_diffraction: bool,
     /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
     /// higher is smoother late decay for more time.
     #[arg(long)]
@@ -118,7 +119,7 @@ impl Default for AcousticOptions {
             no_diffuse_rain: false,
             no_splitting: false,
             no_diffraction: false,
-            no_ray_diffraction: false,
+            ray_diffraction: false,
             roulette_db: None,
             temperature_c: None,
             humidity_percent: None,

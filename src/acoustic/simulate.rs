@@ -114,7 +114,8 @@ pub struct AcousticSettings {
     pub diffraction: bool,
     /// Rays passing near free edges are bent ([`super::ray_diffraction`]): after their first
     /// reflection while `diffraction`'s edge paths (with image sources) cover the direct
-    /// sound, from the source otherwise.
+    /// sound, from the source otherwise. Off by default for now (docs/acoustics.md, Edge
+    /// diffraction: its cost and its noise).
     pub ray_diffraction: bool,
     /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
     /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
@@ -170,7 +171,7 @@ impl Default for AcousticSettings {
             diffuse_rain: true,
             split_copies: SPLIT_COPIES,
             diffraction: true,
-            ray_diffraction: true,
+            ray_diffraction: false,
             ambisonic_order: 0,
             binaural: false,
             hrtf: None,

@@ -44,6 +44,18 @@ pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow
     {
         warnings.push(format!("{scene_label}: {why}"));
     }
+    if s.integrator == IntegratorKind::Radiosity {
+        let rs = RenderScene::new(world);
+        super::radiosity::supported(&rs).map_err(|e| anyhow!("{scene_label}: {e}"))?;
+        let approximated =
+            rs.surfaces.iter().filter(|o| !matches!(o.bsdf, super::Bsdf::Lambert { .. })).count();
+        if approximated > 0 {
+            warnings.push(format!(
+                "{scene_label}: radiosity treats {approximated} non-diffuse surface(s) as diffuse \
+                 (a metal as albedo f0, a glass as albedo tint)"
+            ));
+        }
+    }
     Ok(RenderPlan { settings: s, camera, warnings })
 }
 
@@ -66,6 +78,9 @@ pub fn execute(
     let Some(out) = out else { return Ok(None) };
     if let Some(path) = output {
         out.film.write_with(path, &s.display)?;
+        for note in &out.notes {
+            report.say(note);
+        }
         report.say(&summary(path, s, &out));
     }
     Ok(Some(out))

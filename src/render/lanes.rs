@@ -468,7 +468,7 @@ mod tests {
                 let mut scalar = Vec::new();
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        scalar.push(render_pixel(&scene, &camera, &s, x, y, &mut rays[1]));
+                        scalar.push(render_pixel(&scene, &camera, &s, x, y, &mut rays[1], None));
                     }
                 }
                 let bits =
@@ -487,8 +487,9 @@ mod tests {
         let s = RenderSettings { width: 40, height: 36, spp: 4, ..RenderSettings::default() };
         let mut rays = [0u64; 2];
         let lanes = render_tile(&unlit, &pinhole, &s, (0, 0, 16, 16), &mut rays[0]);
-        let scalar: Vec<Vec3> =
-            (0..256).map(|k| render_pixel(&unlit, &pinhole, &s, k % 16, k / 16, &mut rays[1])).collect();
+        let scalar: Vec<Vec3> = (0..256)
+            .map(|k| render_pixel(&unlit, &pinhole, &s, k % 16, k / 16, &mut rays[1], None))
+            .collect();
         assert!(
             lanes
                 .iter()

@@ -1,6 +1,6 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
-//! `distributed`, `path`, from the lights `light` and `bdpt`, and the photon mappers `sppm` and
-//! `ppm`) over the shared tracing core.
+//! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
+//! `ppm`, and the view-independent `radiosity`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -30,6 +30,7 @@ pub mod lights;
 pub mod options;
 pub mod path;
 pub mod photon_grid;
+pub mod radiosity;
 pub mod raycast;
 pub mod sampler;
 pub mod splat;
@@ -92,12 +93,14 @@ pub enum IntegratorKind {
     /// Progressive photon mapping (Hachisuka, Ogaki, Jensen 2008): SPPM with visible points
     /// fixed after the first camera pass.
     Ppm,
+    /// Hierarchical radiosity (Hanrahan et al. 1991), solved once and seen through the camera.
+    Radiosity,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 8] =
-        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm"];
+    pub const NAMES: [&'static str; 9] =
+        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm", "radiosity"];
 
     /// The integrator's name.
     pub fn name(self) -> &'static str {
@@ -106,7 +109,7 @@ impl IntegratorKind {
 
     /// Whether the pixel samples are jittered (stochastic integrators) or at strata centres.
     fn jitters(self) -> bool {
-        matches!(self, Self::Distributed | Self::Path | Self::Bdpt)
+        matches!(self, Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity)
     }
 
     /// Whether the integrator traces from the lights and splats onto the film (rendered by
@@ -128,6 +131,7 @@ impl FromStr for IntegratorKind {
             "bdpt" => Ok(Self::Bdpt),
             "sppm" => Ok(Self::Sppm),
             "ppm" => Ok(Self::Ppm),
+            "radiosity" => Ok(Self::Radiosity),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -159,6 +163,8 @@ pub struct RenderSettings {
     pub clamp_indirect: Option<f32>,
     /// Photon-mapping settings (`sppm`, `ppm`; the others ignore them).
     pub photons: sppm::PhotonSettings,
+    /// The radiosity integrator's options (patches, refinement, tolerance).
+    pub radiosity: radiosity::RadiosityOptions,
 }
 
 impl Default for RenderSettings {
@@ -174,6 +180,7 @@ impl Default for RenderSettings {
             display: film::Display::default(),
             clamp_indirect: None,
             photons: sppm::PhotonSettings::default(),
+            radiosity: radiosity::RadiosityOptions::default(),
         }
     }
 }
@@ -203,6 +210,7 @@ impl RenderSettings {
             return Err(format!("indirect clamp {c}: must be a finite luminance, 0 or more"));
         }
         self.photons.validate()?;
+        self.radiosity.validate()?;
         self.display.validate()
     }
 }
@@ -274,6 +282,8 @@ pub struct RenderScene<'a> {
     pub lights: Lights,
     /// Radiance of rays that leave the scene.
     pub background: Vec3,
+    /// The mesh (radiosity patches its triangles).
+    mesh: &'a TriangleMesh,
     /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
     /// a hit needs only these, so the renderer skips the core's barycentric recomputation.
     triangles: Vec<(Vec3, u32)>,
@@ -309,7 +319,7 @@ impl<'a> RenderScene<'a> {
     /// A render scene from its parts; `points` are (position, intensity) point lights.
     pub fn from_parts(
         accel: &'a Accel,
-        mesh: &TriangleMesh,
+        mesh: &'a TriangleMesh,
         spheres: &[Sphere],
         surfaces: Vec<SurfaceOptics>,
         points: &[(Vec3, Vec3)],
@@ -323,7 +333,12 @@ impl<'a> RenderScene<'a> {
                 ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
             })
             .collect();
-        Self { accel, surfaces, lights, background, triangles }
+        Self { accel, surfaces, lights, background, mesh, triangles }
+    }
+
+    /// The scene's triangle mesh (the one `accel` was built from).
+    pub fn mesh(&self) -> &'a TriangleMesh {
+        self.mesh
     }
 
     /// The closest hit along `ray` (barycentrics are not computed: zero).
@@ -470,11 +485,15 @@ pub struct RenderOutput {
     pub photons: u64,
     /// Wall time, seconds.
     pub seconds: f64,
+    /// What the integrator reports besides the image, one line each (radiosity: its
+    /// elements, links and cost).
+    pub notes: Vec<String>,
 }
 
 /// Radiance along a camera ray by the chosen integrator; counts traced rays into `rays`. The
-/// integrators that splat from the lights ([`IntegratorKind::splats`]) have no per-ray
-/// estimate: they get the path tracer's.
+/// integrators that splat from the lights ([`IntegratorKind::splats`]) and radiosity (which
+/// needs its solution, see [`radiosity::Solution::radiance`]) have no per-ray estimate: they
+/// get the path tracer's.
 #[inline]
 pub fn radiance(
     scene: &RenderScene,
@@ -495,7 +514,8 @@ pub fn radiance(
         | IntegratorKind::Light
         | IntegratorKind::Bdpt
         | IntegratorKind::Sppm
-        | IntegratorKind::Ppm => {
+        | IntegratorKind::Ppm
+        | IntegratorKind::Radiosity => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -511,6 +531,7 @@ fn render_pixel(
     x: u32,
     y: u32,
     rays: &mut u64,
+    solution: Option<&radiosity::Solution>,
 ) -> Vec3 {
     let (mut rng, pixel_seed) = pixel_stream(s, x, y);
     let jitter = s.integrator.jitters();
@@ -524,7 +545,13 @@ fn render_pixel(
             let film = Vec2::new((x as f32 + 0.5) / s.width as f32, (y as f32 + 0.5) / s.height as f32);
             camera.ray(film, Vec2::ZERO)
         };
-        let l = radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect);
+        let l = match solution {
+            Some(sol) => {
+                *rays += 1;
+                scene.intersect(&ray).map_or(scene.background, |hit| sol.radiance(&hit))
+            }
+            None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
+        };
         // A NaN or infinity (a numerical accident) would poison the pixel: drop the sample.
         if l.is_finite() {
             sum += l;
@@ -584,6 +611,7 @@ pub fn render_on(
                 surfaces: scene.surfaces.clone(),
                 lights: scene.lights.clone(),
                 background,
+                mesh: scene.mesh,
                 triangles: scene.triangles.clone(),
             };
             &scene_bg
@@ -598,6 +626,12 @@ pub fn render_on(
         }
         _ => {}
     }
+    // Radiosity: every process solves the same system (deterministically), then renders its
+    // tiles from it; the form-factor rays are counted once, on rank 0.
+    let solution = match settings.integrator {
+        IntegratorKind::Radiosity => Some(radiosity::solve_scene(scene, &settings.radiosity, settings.seed)?),
+        _ => None,
+    };
     let (w, h) = (settings.width, settings.height);
     let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
         .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
@@ -616,7 +650,7 @@ pub fn render_on(
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays));
+                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays, solution.as_ref()));
                     }
                 }
                 px
@@ -626,7 +660,10 @@ pub fn render_on(
         })
         .collect();
     let mut film = Film::new(w, h);
-    let mut rays = 0;
+    let mut rays = match &solution {
+        Some(sol) if cluster.is_root() => sol.rays,
+        _ => 0,
+    };
     for (&(x0, y0), (px, r)) in mine.iter().zip(done) {
         rays += r;
         let tw = (x0 + TILE).min(w) - x0;
@@ -655,6 +692,7 @@ pub fn render_on(
         rays,
         photons: 0,
         seconds: start.elapsed().as_secs_f64(),
+        notes: solution.iter().map(|sol| sol.summary()).collect(),
     }))
 }
 

@@ -36,8 +36,8 @@ pub struct RenderOptions {
     #[arg(long = "max-depth")]
     pub max_depth: Option<u32>,
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
-    /// tracing), sppm (stochastic progressive photon mapping) or ppm (progressive photon
-    /// mapping) (default: the scene's, else path).
+    /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
+    /// mapping) or radiosity (hierarchical radiosity) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -77,6 +77,9 @@ pub struct RenderOptions {
     /// (default: 1 % of the diagonal of the box around the visible points).
     #[arg(long = "sppm-radius", value_name = "METRES", allow_hyphen_values = true)]
     pub sppm_radius_m: Option<f32>,
+    /// The radiosity integrator's options.
+    #[command(flatten)]
+    pub radiosity: super::radiosity::RadiosityOptions,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -120,6 +123,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         display,
         clamp_indirect: options.clamp_indirect,
         photons,
+        radiosity: options.radiosity.clone(),
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)

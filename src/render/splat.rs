@@ -95,7 +95,14 @@ pub(super) fn finish(
         *p += splats.pixel(i, scale);
     }
     let samples = u64::from(film.width) * u64::from(film.height) * u64::from(spp);
-    Some(RenderOutput { film, samples, rays, photons: 0, seconds: start.elapsed().as_secs_f64() })
+    Some(RenderOutput {
+        film,
+        samples,
+        rays,
+        photons: 0,
+        seconds: start.elapsed().as_secs_f64(),
+        notes: Vec::new(),
+    })
 }
 
 #[cfg(test)]

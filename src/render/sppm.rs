@@ -423,6 +423,7 @@ pub fn render_on(
         rays: total_rays[0],
         photons: emitted as u64,
         seconds: start.elapsed().as_secs_f64(),
+        notes: Vec::new(),
     })
 }
 
