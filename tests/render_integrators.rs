@@ -1,68 +1,14 @@
-//! The integrators that trace from the lights (`light`, `bdpt`), tested against closed forms (their white furnace is tests/render.rs's)
-//! and statistically against the path tracer (never against a stored image), and their
-//! determinism across thread counts.
+//! The integrators that trace from the lights (`light`, `bdpt`, `sppm`, `ppm`), tested against
+//! closed forms and statistically against the path tracer (never against a stored image).
+//! Their white furnace and their determinism across thread counts are tests/render.rs's,
+//! which loops over every integrator.
 
 mod common;
 
 use common::render::{go, settings};
-use glam::{Vec2, Vec3};
-use propsim::core::{Accel, BuildQuality, Sphere};
-use propsim::render::{Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics};
+use glam::Vec2;
+use propsim::render::{Camera, Film, IntegratorKind, RenderScene, RenderSettings};
 use propsim::scene::{self, LoadOptions, World};
-
-/// The integrators that trace from the lights: splats summed in fixed point (`light`, `bdpt`)
-/// and photon deposits summed in fixed point (`sppm`, `ppm`).
-const FROM_LIGHTS: [IntegratorKind; 4] =
-    [IntegratorKind::Light, IntegratorKind::Bdpt, IntegratorKind::Sppm, IntegratorKind::Ppm];
-
-/// The same seed gives bit-identical images on 1 and 2 threads for the integrators that trace
-/// from the lights, on a scene with glass, metal, an area light and depth of field (the light
-/// image and the photon deposits are summed in fixed point, so the order in which threads add
-/// them does not matter).
-#[test]
-fn same_seed_same_image_on_one_and_two_threads() {
-    let world = cornell_classic();
-    let mut mesh = world.scene.mesh.clone();
-    let glass = mesh.surface_id("glass");
-    let metal = mesh.surface_id("metal");
-    let mut optics: Vec<SurfaceOptics> =
-        world.scene.surfaces.iter().map(SurfaceOptics::from_surface).collect();
-    optics.push(SurfaceOptics { bsdf: Bsdf::Dielectric { eta: 1.5, tint: Vec3::ONE }, emission: Vec3::ZERO });
-    optics.push(SurfaceOptics {
-        bsdf: Bsdf::Metal { f0: Vec3::new(0.9, 0.8, 0.5), alpha: 0.2 },
-        emission: Vec3::ZERO,
-    });
-    let spheres = vec![
-        Sphere::new(Vec3::new(0.2, 0.2, 0.43), 0.08, glass),
-        Sphere::new(Vec3::new(0.4, 0.3, 0.25), 0.08, metal),
-    ];
-    let accel = Accel::build(&mesh, spheres.clone(), BuildQuality::default());
-    let scene = RenderScene::from_parts(&accel, &mesh, &spheres, optics, &[], Vec3::ZERO);
-    let mut cam = propsim::render::scene_camera(&world, 1.5).unwrap();
-    cam.set_lens(0.01, Some(1.0)).unwrap();
-    let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
-    for integrator in FROM_LIGHTS {
-        let s = RenderSettings {
-            width: 45,
-            height: 30,
-            spp: 6,
-            max_depth: 8,
-            integrator,
-            seed: 42,
-            ..RenderSettings::default()
-        };
-        let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            pool.install(|| go(&scene, &cam, &s))
-        };
-        let (one, two) = (run(1), run(2));
-        assert_eq!(bits(&one), bits(&two), "{integrator:?}");
-        assert!(one.pixels.iter().all(|p| p.is_finite()));
-        assert!(one.mean().max_element() > 0.0);
-        let other = go(&scene, &cam, &RenderSettings { seed: 43, ..s.clone() });
-        assert_ne!(bits(&one), bits(&other), "{integrator:?}");
-    }
-}
 
 /// SPPM converges on the closed Cornell box: its RMSE against a high-sample path-traced
 /// reference falls as the iterations grow (SPPM is biased, so the test is its own
@@ -103,10 +49,6 @@ fn sppm_error_falls_as_iterations_grow_on_the_cornell_box() {
     }
     assert!(errors[1] < 0.8 * errors[0], "{errors:?}");
     assert!(errors[2] < 0.8 * errors[1], "{errors:?}");
-}
-
-fn cornell_classic() -> World {
-    World::build(scene::load("builtin:cornell_box_classic".as_ref(), &LoadOptions::default()).unwrap())
 }
 
 /// Two-sided tail probability `P(|T| > x)` of Student's t with `dof` degrees of freedom, by
