@@ -12,8 +12,12 @@
 //! and the early reflections change. `w(0)` is the directivity factor Q (3 for the cardioid,
 //! 4 for the hypercardioid, 3 for the figure-of-eight).
 
+use std::sync::Arc;
+
 use glam::Vec3;
 use serde::Serialize;
+
+use super::balloon::Balloon;
 
 use crate::scene::desc::{AlphaDesc, PatternName};
 use crate::scene::materials::{BAND_COUNT, BandValues};
@@ -84,14 +88,35 @@ impl FirstOrder {
     }
 }
 
-/// A source's directivity: one first-order pattern per octave band about a unit axis (the
-/// direction it faces, its on-axis direction).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+/// A source's or receiver's directivity: one first-order pattern per octave band about a
+/// unit axis (the direction it faces, its on-axis direction), or a measured balloon
+/// ([`Balloon`]) whose front is the axis and whose top is `up`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Directivity {
-    /// The pattern of each octave band.
+    /// The pattern of each octave band (unused with a balloon).
     pub bands: [FirstOrder; BAND_COUNT],
-    /// Unit vector, the pattern's axis (theta = 0).
+    /// Unit vector, the pattern's axis (theta = 0): a balloon's front (its +x).
     pub axis: [f32; 3],
+    /// Unit vector normal to `axis`: a balloon's top (its +z); +z, or +x when the axis is
+    /// vertical, unless given.
+    pub up: [f32; 3],
+    /// A measured balloon, in place of the bands' patterns; reports show its file.
+    #[serde(serialize_with = "serialize_balloon")]
+    pub balloon: Option<Arc<Balloon>>,
+}
+
+fn serialize_balloon<S: serde::Serializer>(b: &Option<Arc<Balloon>>, s: S) -> Result<S::Ok, S::Error> {
+    match b {
+        Some(b) => s.serialize_some(&b.file),
+        None => s.serialize_none(),
+    }
+}
+
+/// A unit vector normal to the unit `axis`, as near `up` as can be (`up` projected off the
+/// axis); +z or, for a vertical axis, +x when `up` is absent or along the axis.
+fn normal_up(axis: Vec3, up: Option<Vec3>) -> Vec3 {
+    let project = |u: Vec3| (u - u.dot(axis) * axis).try_normalize();
+    up.and_then(project).or_else(|| project(Vec3::Z)).or_else(|| project(Vec3::X)).unwrap_or(Vec3::Y)
 }
 
 impl Default for Directivity {
@@ -102,7 +127,12 @@ impl Default for Directivity {
 
 impl Directivity {
     /// The omnidirectional source: weight 1 everywhere.
-    pub const OMNI: Self = Self { bands: [FirstOrder::OMNI; BAND_COUNT], axis: [1.0, 0.0, 0.0] };
+    pub const OMNI: Self = Self {
+        bands: [FirstOrder::OMNI; BAND_COUNT],
+        axis: [1.0, 0.0, 0.0],
+        up: [0.0, 0.0, 1.0],
+        balloon: None,
+    };
 
     /// One pattern in every band about `axis` (normalised here; a zero or non-finite axis is
     /// an error).
@@ -123,7 +153,35 @@ impl Directivity {
                 axis.x, axis.y, axis.z
             ));
         }
-        Ok(Self { bands, axis: (axis / len).to_array() })
+        let axis = axis / len;
+        Ok(Self { bands, axis: axis.to_array(), up: normal_up(axis, None).to_array(), balloon: None })
+    }
+
+    /// A measured balloon facing `axis` with its top towards `up` (projected normal to the
+    /// axis; +z when absent). Errors: an axis that is zero or not finite.
+    pub fn measured(balloon: Arc<Balloon>, axis: Vec3, up: Option<Vec3>) -> Result<Self, String> {
+        let d = Self::uniform(FirstOrder::OMNI, axis)?;
+        let axis = Vec3::from(d.axis);
+        Ok(Self { up: normal_up(axis, up.filter(|u| u.is_finite())).to_array(), balloon: Some(balloon), ..d })
+    }
+
+    /// The same directivity facing `axis` (its top kept as near as can be). Errors: an axis
+    /// that is zero or not finite.
+    pub fn turned(&self, axis: Vec3) -> Result<Self, String> {
+        let d = Self::per_band(self.bands, axis)?;
+        let axis = Vec3::from(d.axis);
+        Ok(Self {
+            up: normal_up(axis, Some(Vec3::from(self.up))).to_array(),
+            balloon: self.balloon.clone(),
+            ..d
+        })
+    }
+
+    /// `dir` in the balloon's frame: (front, left, top) components.
+    #[inline]
+    fn local(&self, dir: Vec3) -> Vec3 {
+        let (x, z) = (Vec3::from(self.axis), Vec3::from(self.up));
+        Vec3::new(dir.dot(x), dir.dot(z.cross(x)), dir.dot(z))
     }
 
     /// Checks a directivity built field by field: every `a` in [0, 1] and a finite unit axis.
@@ -135,18 +193,30 @@ impl Directivity {
                 axis.x, axis.y, axis.z
             ));
         }
+        if self.balloon.is_some() {
+            let up = Vec3::from(self.up);
+            if !(up.is_finite() && (up.length() - 1.0).abs() < 1e-3 && up.dot(axis).abs() < 1e-3) {
+                return Err(format!(
+                    "directivity up [{}, {}, {}]: must be a unit vector normal to the axis",
+                    up.x, up.y, up.z
+                ));
+            }
+        }
         Self::per_band(self.bands, axis).map(|_| ())
     }
 
     /// Whether every band is omnidirectional (then rays and image sources skip the weights).
     pub fn is_omni(&self) -> bool {
-        self.bands.iter().all(|p| p.a == 1.0)
+        self.balloon.is_none() && self.bands.iter().all(|p| p.a == 1.0)
     }
 
     /// The energy weight of each band towards the unit direction `dir` (mean 1 over the
     /// sphere in every band).
     #[inline]
     pub fn energy_weights(&self, dir: Vec3) -> BandValues {
+        if let Some(b) = &self.balloon {
+            return b.energy_weights(self.local(dir));
+        }
         let c = dir.dot(Vec3::from(self.axis)).clamp(-1.0, 1.0);
         self.bands.map(|p| p.energy_weight(c))
     }
@@ -158,6 +228,9 @@ impl Directivity {
     /// `a^2 + (1 - a)^2 / 3`: 1/3 for the cardioid.
     #[inline]
     pub fn sensitivity(&self, dir: Vec3) -> BandValues {
+        if let Some(b) = &self.balloon {
+            return b.sensitivity(self.local(dir));
+        }
         let c = dir.dot(Vec3::from(self.axis)).clamp(-1.0, 1.0);
         self.bands.map(|p| {
             let g = p.gain(c);
@@ -196,8 +269,16 @@ impl Directivity {
     }
 
     /// The pattern named `name` (one of [`PATTERN_NAMES`], "mix" with `alpha`) about `axis`,
-    /// as the command line gives it; the error lists the valid names.
+    /// or a measured balloon when `name` is a file ending in `.sofa`, as the command line
+    /// gives it; the error lists the valid names.
     pub fn parse(name: &str, alpha: Option<f32>, axis: Option<[f32; 3]>) -> Result<Self, String> {
+        if name.to_ascii_lowercase().ends_with(".sofa") {
+            if alpha.is_some() {
+                return Err("a directivity alpha applies only to the pattern \"mix\"".into());
+            }
+            let balloon = super::balloon::load_sofa_cached(std::path::Path::new(name))?;
+            return Self::measured(balloon, Vec3::from(axis.unwrap_or([1.0, 0.0, 0.0])), None);
+        }
         let pattern = match name {
             "omni" => PatternName::Omni,
             "cardioid" => PatternName::Cardioid,
@@ -216,17 +297,32 @@ impl Directivity {
     }
 }
 
+/// The directivity a scene file gives one point: a measured balloon (`directivity_sofa`,
+/// relative to `base_dir`, the scene file's folder) or a pattern ([`Directivity::from_desc`]).
+/// Errors are one line without the scene file's name (the caller adds it).
+pub fn from_point(
+    p: &crate::scene::desc::PointDesc,
+    base_dir: &std::path::Path,
+) -> Result<Directivity, String> {
+    let Some(file) = &p.directivity_sofa else {
+        return Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation);
+    };
+    if p.directivity.is_some() || p.directivity_alpha.is_some() {
+        return Err("give either directivity or directivity_sofa, not both".into());
+    }
+    let balloon = super::balloon::load_sofa_cached(&base_dir.join(file))?;
+    Directivity::measured(balloon, Vec3::from(p.orientation.unwrap_or([1.0, 0.0, 0.0])), p.up.map(Vec3::from))
+}
+
 /// The directivity of every acoustic source, then every receiver, of `world`'s scene file, in
 /// their order; an error names the point (the caller adds the file name).
 pub fn scene_directivities(world: &crate::scene::World) -> Result<Vec<Directivity>, String> {
     let Some(desc) = &world.scene.desc.acoustic else { return Ok(Vec::new()) };
+    let base_dir = world.scene.path.parent().unwrap_or(std::path::Path::new("."));
     let sources = desc.sources.iter().map(|p| ("source", p));
     sources
         .chain(desc.receivers.iter().map(|p| ("receiver", p)))
-        .map(|(kind, p)| {
-            Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
-                .map_err(|e| format!("{kind} \"{}\": {e}", p.name))
-        })
+        .map(|(kind, p)| from_point(p, base_dir).map_err(|e| format!("{kind} \"{}\": {e}", p.name)))
         .collect()
 }
 

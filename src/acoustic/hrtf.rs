@@ -105,9 +105,23 @@ impl EarTable {
         if len == 0 || len > 1 << 16 {
             return Err(format!("{name}: SOFA impulse responses of {len} samples"));
         }
+        // sofar looks a direction up by distance to the measured positions: ask at their
+        // radius (the median), or every lookup blends the nearest measurement with its
+        // neighbours and the ears' onsets drift to the earliest of them.
+        let mut radii: Vec<f32> = sofa
+            .hrtf()
+            .source_position
+            .values
+            .chunks_exact(3)
+            .map(|p| (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt())
+            .filter(|r| r.is_finite() && *r > 0.0)
+            .collect();
+        radii.sort_by(f32::total_cmp);
+        let radius = f64::from(radii.get(radii.len() / 2).copied().unwrap_or(1.0));
         let table = Self::from_hrirs(|d| {
             let mut f = sofar::reader::Filter::new(len);
-            sofa.filter(d.x as f32, d.y as f32, d.z as f32, &mut f);
+            let p = d * radius;
+            sofa.filter(p.x as f32, p.y as f32, p.z as f32, &mut f);
             ([f.left.to_vec(), f.right.to_vec()], [f64::from(f.ldelay), f64::from(f.rdelay)])
         });
         if table.entries.iter().all(|e| e.iter().all(|ear| ear.iter().all(|(g, _)| *g == 0.0))) {
@@ -178,6 +192,28 @@ mod tests {
             let itd = (r.1 - l.1) / 48_000.0;
             let want = HEAD_RADIUS_M / c * (std::f64::consts::FRAC_PI_2 + 1.0);
             assert!((itd - want).abs() * 48_000.0 <= 1.0, "band {b}: {itd} vs {want}");
+        }
+    }
+
+    #[test]
+    fn a_sofa_file_of_delayed_impulses_keeps_woodworths_itd() {
+        // tests/data/hrir_delays.sofa (rooms/tools/gen_sofa.py, a SimpleFreeFieldHRIR file as
+        // netCDF writes it): each ear's HRIR is a unit impulse at the spherical head's path to
+        // it, a = 8.75 cm, on a 10-degree grid. Read through sofar, a lateral source keeps
+        // Woodworth's ITD (a / c)(pi / 2 + 1) = 31.5 samples to 1.5 samples (each ear's
+        // impulse was rounded to a sample), the frontal source none, and the left ear leads
+        // for a source on the left.
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/hrir_delays.sofa");
+        let table = EarTable::load_sofa(&path).unwrap();
+        let want = 0.0875 / 343.0 * (std::f64::consts::FRAC_PI_2 + 1.0) * 48_000.0;
+        for b in 0..BAND_COUNT {
+            let [l, r] = table.ears(DVec3::Y, b);
+            assert!((r.1 - l.1 - want).abs() <= 1.5, "band {b}: ITD {} samples vs {want:.2}", r.1 - l.1);
+            let [l, r] = table.ears(-DVec3::Y, b);
+            assert!((l.1 - r.1 - want).abs() <= 1.5, "band {b}: ITD {} samples vs {want:.2}", l.1 - r.1);
+            let [l, r] = table.ears(DVec3::X, b);
+            assert!((l.1 - r.1).abs() <= 1.0, "band {b}: frontal ITD {}", l.1 - r.1);
+            assert!(l.0 > 0.0 && r.0 > 0.0);
         }
     }
 

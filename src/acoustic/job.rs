@@ -109,7 +109,7 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             let d = Directivity::parse(name, options.directivity_alpha, axis)
                 .map_err(|e| anyhow::anyhow!("--directivity {name}: {e}"))?;
             for s in &mut sources {
-                s.directivity = d;
+                s.directivity = d.clone();
             }
         }
         (None, axis) => {
@@ -119,7 +119,9 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             );
             if let Some(axis) = axis {
                 for s in &mut sources {
-                    s.directivity = Directivity::per_band(s.directivity.bands, glam::Vec3::from(axis))
+                    s.directivity = s
+                        .directivity
+                        .turned(glam::Vec3::from(axis))
                         .map_err(|e| anyhow::anyhow!("--orientation: {e}"))?;
                 }
             }
@@ -130,7 +132,9 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
             let up = r.listener.up.as_vec3().to_array();
             r.listener = crate::acoustic::spatial::Listener::looking(axis, up)
                 .map_err(|e| anyhow::anyhow!("--receiver-orientation: {e}"))?;
-            r.directivity = Directivity::per_band(r.directivity.bands, glam::Vec3::from(axis))
+            r.directivity = r
+                .directivity
+                .turned(glam::Vec3::from(axis))
                 .map_err(|e| anyhow::anyhow!("--receiver-orientation: {e}"))?;
         }
     }

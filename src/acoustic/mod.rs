@@ -5,6 +5,7 @@
 pub mod air;
 pub mod ambisonics;
 pub mod auralize;
+pub mod balloon;
 pub mod diffraction;
 pub mod directions;
 pub mod directivity;

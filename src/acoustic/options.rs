@@ -64,8 +64,8 @@ pub struct AcousticOptions {
     #[arg(long)]
     pub humidity_percent: Option<f64>,
     /// Directivity of every source, replacing the scene's: omni, cardioid, supercardioid,
-    /// hypercardioid, figure-of-eight, or mix (with --directivity-alpha); normalised to the
-    /// source's power (docs/acoustics.md, Directivity).
+    /// hypercardioid, figure-of-eight, mix (with --directivity-alpha), or a measured balloon
+    /// FILE.sofa; normalised to the source's power (docs/acoustics.md, Directivity).
     #[arg(long, value_name = "PATTERN")]
     pub directivity: Option<String>,
     /// The omni share a of --directivity mix, a + (1 - a) cos(theta), in [0, 1].
@@ -76,7 +76,8 @@ pub struct AcousticOptions {
     #[arg(long, value_parser = crate::scene::parse_point, allow_hyphen_values = true)]
     pub orientation: Option<[f32; 3]>,
     /// Directivity of every receiver (a directional microphone), replacing the scene's: the
-    /// names of --directivity; its squared gain, 1 on the axis, weights each arrival.
+    /// names of --directivity, or a balloon FILE.sofa; its squared gain, 1 on the axis,
+    /// weights each arrival.
     #[arg(long, value_name = "PATTERN")]
     pub receiver_directivity: Option<String>,
     /// The omni share a of --receiver-directivity mix, in [0, 1].

@@ -279,6 +279,7 @@ pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
     let Some(desc) = &world.scene.desc.acoustic else {
         return (Vec::new(), Vec::new());
     };
+    let base_dir = world.scene.path.parent().unwrap_or(std::path::Path::new("."));
     let sources = desc
         .sources
         .iter()
@@ -288,8 +289,7 @@ pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
             power_w: f64::from(p.power_w.unwrap_or(1.0)),
             // An invalid description is refused by [`super::plan`]
             // ([`super::directivity::scene_directivities`]); here it falls back to omni.
-            directivity: Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
-                .unwrap_or_default(),
+            directivity: super::directivity::from_point(p, base_dir).unwrap_or_default(),
         })
         .collect();
     let receivers = desc
@@ -301,8 +301,7 @@ pub fn scene_points(world: &World) -> (Vec<SourceSpec>, Vec<ReceiverSpec>) {
             radius_m: p.radius_m,
             // An invalid head is refused by [`super::plan`]; here it falls back to the default.
             listener: scene_listener(p).unwrap_or_default(),
-            directivity: Directivity::from_desc(p.directivity, p.directivity_alpha.as_ref(), p.orientation)
-                .unwrap_or_default(),
+            directivity: super::directivity::from_point(p, base_dir).unwrap_or_default(),
         })
         .collect();
     (sources, receivers)
@@ -528,7 +527,7 @@ pub fn simulate_on(
         .iter()
         .map(|r| {
             r.directivity.validate().map_err(|e| format!("receiver \"{}\": {e}", r.name))?;
-            Ok((!r.directivity.is_omni()).then_some(r.directivity))
+            Ok((!r.directivity.is_omni()).then(|| r.directivity.clone()))
         })
         .collect::<Result<_, String>>()?;
     let mut pairs = Vec::new();
@@ -539,7 +538,7 @@ pub fn simulate_on(
             return Err(format!("source \"{}\" power {} W: must be > 0", source.name, source.power_w));
         }
         source.directivity.validate().map_err(|e| format!("source \"{}\": {e}", source.name))?;
-        let directivity = (!source.directivity.is_omni()).then_some(source.directivity);
+        let directivity = (!source.directivity.is_omni()).then(|| source.directivity.clone());
         let prop = SoundPropagation {
             surfaces: &surfaces,
             receivers: &spheres,

@@ -167,10 +167,14 @@ pub struct PointDesc {
     /// The omni share `a` of `directivity = "mix"`, `a + (1 - a) cos theta`: one value, or
     /// eight, one per octave band 63 Hz to 8 kHz.
     pub directivity_alpha: Option<AlphaDesc>,
+    /// A measured directivity balloon, a SOFA file (relative to the scene file) in place of
+    /// `directivity`; see `acoustic::balloon`.
+    pub directivity_sofa: Option<String>,
     /// The direction a source faces (its pattern's axis), or a receiver looks (the front of
     /// its Ambisonic and binaural responses); +x when absent.
     pub orientation: Option<Point3>,
-    /// The top of a receiver's head (with `orientation`); +z when absent.
+    /// The top of a receiver's head, or of a measured balloon (with `orientation`); +z when
+    /// absent.
     pub up: Option<Point3>,
 }
 
