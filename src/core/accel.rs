@@ -397,6 +397,11 @@ impl MeshBvh {
 
     /// [`MeshBvh::closest_hit`] of every ray, in groups and a stream, into `out`.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        if self.mesh_index.is_empty() {
+            // No triangle (a scene of instances only): nothing to test.
+            out.fill(None);
+            return;
+        }
         if !self.traverser.streams() {
             out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.closest_hit(r));
             return;
