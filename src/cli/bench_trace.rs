@@ -92,13 +92,14 @@ fn run_instanced(args: &TraceArgs, mesh: &TriangleMesh, label: &str, n: usize) -
     for (name, rays) in [("coherent", &coherent), ("incoherent", &incoherent)] {
         let i = trace_figures(&instanced, rays, args.repeat);
         crate::outln!(
-            "{name:<12} {} rays: instanced render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}",
+            "{name:<12} {} rays: instanced render {:.2}, launcher {:.2}, occlusion {:.2} Mrays/s, hits {}, occluded {}, launcher distances differing {}",
             rays.len(),
             i.render_mrays_s,
             i.launcher_mrays_s,
             i.occlusion_mrays_s,
             i.hits,
-            i.occluded
+            i.occluded,
+            i.launcher_differs
         );
         if let Some(flat) = &flat {
             let f = trace_figures(flat, rays, args.repeat);

@@ -361,8 +361,47 @@ impl MeshBvh {
         }
     }
 
+    /// Closest lanes of at most [`GROUP_WIDTH`] coherent rays (close in direction and
+    /// origin), each up to its `t_max`: on trees large enough for streams they walk the tree
+    /// as one group (the same distances as [`MeshBvh::closest_lane`], bit for bit), else one
+    /// by one. `out(k, lane)` gets ray `k`'s; `stack` is scratch space. The instanced batch
+    /// query's bottom level.
+    fn closest_lanes_grouped(
+        &self,
+        rays: &[Ray],
+        stack: &mut Vec<(u32, u32, f32)>,
+        mut out: impl FnMut(usize, Option<ClosestLane>),
+    ) {
+        if self.flat.is_some() || !self.traverser.streams() || rays.len() > GROUP_WIDTH {
+            rays.iter().enumerate().for_each(|(k, r)| out(k, self.closest_lane(r)));
+            return;
+        }
+        let node_rays: Vec<NodeRay> = rays.iter().map(node_ray).collect();
+        let mut t_max: Vec<f32> = rays.iter().map(|r| r.t_max).collect();
+        let mut visitors: Vec<ClosestTriangle<'_>> = rays.iter().map(|r| self.closest_visitor(r)).collect();
+        self.traverser.closest_one_group(
+            &self.nodes,
+            &node_rays,
+            &mut t_max,
+            stack,
+            |first, count, mut m, t| {
+                while m != 0 {
+                    let r = m.trailing_zeros() as usize;
+                    m &= m - 1;
+                    visitors[r].test(first, count, &mut t[r]);
+                }
+            },
+        );
+        visitors.into_iter().enumerate().for_each(|(k, v)| out(k, v.best));
+    }
+
     /// [`MeshBvh::closest_hit`] of every ray, in groups and a stream, into `out`.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        if self.mesh_index.is_empty() {
+            // No triangle (a scene of instances only): nothing to test.
+            out.fill(None);
+            return;
+        }
         if !self.traverser.streams() {
             out.iter_mut().zip(rays).for_each(|(o, r)| *o = self.closest_hit(r));
             return;
@@ -737,13 +776,36 @@ impl Accel {
     /// (coherent groups and streams on large trees, the same code `propsim bench trace`
     /// measures), then the spheres up to each triangle hit. The launcher traces its blocks
     /// of rays bounce by bounce through this.
+    /// Instances whose meshes have large trees go through their own batch query
+    /// ([`InstanceSet::closest_hits_into`]: coherent runs walk each instance's tree as
+    /// groups), between the spheres and the shapes as in [`Accel::closest_hit`], with the
+    /// same hits.
     pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
         self.mesh.closest_hits_into(rays, out);
         if self.mesh_only {
             return;
         }
-        for (hit, ray) in out.iter_mut().zip(rays) {
-            *hit = self.closest_beyond_mesh(ray, *hit);
+        if !self.instances.groups() {
+            for (hit, ray) in out.iter_mut().zip(rays) {
+                *hit = self.closest_beyond_mesh(ray, *hit);
+            }
+            return;
+        }
+        let limited = |ray: &Ray, hit: &Option<Hit>| Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
+        if !self.spheres.is_empty() {
+            for (hit, ray) in out.iter_mut().zip(rays) {
+                if let Some(h) = self.spheres.closest_hit(&limited(ray, hit)) {
+                    *hit = Some(h);
+                }
+            }
+        }
+        self.instances.closest_hits_into(rays, out);
+        if !self.shapes.is_empty() {
+            for (hit, ray) in out.iter_mut().zip(rays) {
+                if let Some(h) = self.shapes_hit(&limited(ray, hit)) {
+                    *hit = Some(h);
+                }
+            }
         }
     }
 }

@@ -229,6 +229,9 @@ pub struct TraceFigures {
     pub hits: usize,
     /// Rays found occluded.
     pub occluded: usize,
+    /// Rays whose launcher distance differs from the render query's (0: the batch and
+    /// single-ray queries agree bit for bit).
+    pub launcher_differs: usize,
     /// Sum over rays of (hit triangle index + 1), 0 for a miss, wrapping at 2^64.
     pub checksum: u64,
 }
@@ -244,6 +247,7 @@ pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures
     let mut checksum = 0u64;
     let mut hits = 0;
     let mut occluded = 0;
+    let mut launcher_differs = 0;
     let mut launched: Vec<Option<Hit>> = vec![None; rays.len()];
     for _ in 0..repeat.max(1) {
         let t = Instant::now();
@@ -261,6 +265,9 @@ pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures
             .zip(rays.par_chunks(LAUNCH_BLOCK))
             .for_each(|(out, block)| accel.closest_hits_into(block, out));
         launcher_s.push(t.elapsed().as_secs_f64());
+        launcher_differs = (launched.iter().zip(&tri))
+            .filter(|(l, r)| l.map(|h| h.t.to_bits()) != r.map(|(_, t)| t.to_bits()))
+            .count();
         let t = Instant::now();
         let occ: Vec<bool> = rays.par_iter().map(|r| accel.occluded(r)).collect();
         occl_s.push(t.elapsed().as_secs_f64());
@@ -273,6 +280,7 @@ pub fn trace_figures(accel: &Accel, rays: &[Ray], repeat: usize) -> TraceFigures
         occlusion_mrays_s: n / median(occl_s) / 1e6,
         hits,
         occluded,
+        launcher_differs,
         checksum,
     }
 }

@@ -639,6 +639,54 @@ impl Traverser {
     }
 }
 
+impl Traverser {
+    /// Closest-hit walk of one group of at most [`GROUP_WIDTH`] rays over a tree that stays
+    /// in the cache, the leaf test made for the whole group at once
+    /// (`leaf(first, count, ray mask, t_max)`, see `group::walk_one_group`); `stack` is
+    /// scratch space. The instanced batch query walks both levels this way.
+    pub fn closest_one_group(
+        &self,
+        nodes: &[CwBvhNode],
+        rays: &[NodeRay],
+        t_max: &mut [f32],
+        stack: &mut Vec<(u32, u32, f32)>,
+        leaf: impl FnMut(u32, u32, u32, &mut [f32]),
+    ) {
+        match self.isa {
+            Isa::Scalar => {
+                group::walk_one_group::<group::EachRay<ScalarTest>>(nodes, rays, t_max, stack, leaf)
+            }
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx` is only chosen when the CPU has AVX, FMA, SSE4.1 and POPCNT.
+            Isa::Avx => unsafe { one_group_avx(nodes, rays, t_max, stack, leaf) },
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Isa::Avx2` and `Isa::Avx512` are only chosen when the CPU has AVX2,
+            // FMA, BMI1 and POPCNT.
+            Isa::Avx2 | Isa::Avx512 => unsafe { one_group_avx2(nodes, rays, t_max, stack, leaf) },
+        }
+    }
+}
+
+/// [`group::walk_one_group`] compiled for one instruction set.
+macro_rules! one_group_entry_point {
+    ($features:literal, $test:ty, $name:ident) => {
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = $features)]
+        fn $name(
+            nodes: &[CwBvhNode],
+            rays: &[NodeRay],
+            t_max: &mut [f32],
+            stack: &mut Vec<(u32, u32, f32)>,
+            leaf: impl FnMut(u32, u32, u32, &mut [f32]),
+        ) {
+            group::walk_one_group::<$test>(nodes, rays, t_max, stack, leaf)
+        }
+    };
+}
+
+one_group_entry_point!("avx,fma,sse4.1,popcnt", group::EachRay<avx::AvxTest<false>>, one_group_avx);
+one_group_entry_point!("avx2,fma,bmi1,popcnt", group::Avx2Group, one_group_avx2);
+
 /// [`group::groups_loop`] compiled for one instruction set.
 macro_rules! group_entry_point {
     ($features:literal, $test:ty, $name:ident) => {

@@ -19,10 +19,11 @@ use obvhs::BvhBuildParams;
 use obvhs::cwbvh::CwBvh;
 use obvhs::cwbvh::builder::build_cwbvh;
 
-use super::{Bounds, BuildQuality, ClosestLane, MeshBvh, node_ray, padded_bounds};
+use super::{Bounds, BuildQuality, ClosestLane, MeshBvh, node_ray, padded_bounds, split_coherent};
 use crate::core::hit::{Hit, PrimitiveKind, SurfaceId};
 use crate::core::mesh::TriangleMesh;
 use crate::core::ray::Ray;
+use crate::core::traverse::GROUP_WIDTH;
 use crate::core::traverse::{AnyLeaves, ClosestLeaves, Traverser};
 
 /// One placed copy of a mesh.
@@ -82,6 +83,8 @@ pub struct InstanceSet {
     top: Option<(CwBvh, Traverser)>,
     /// Corners of a box holding every instance (lower above upper when empty).
     bounds: (Vec3, Vec3),
+    /// Whether some mesh has a tree large enough for group walks ([`InstanceSet::groups`]).
+    groups: bool,
 }
 
 impl InstanceSet {
@@ -110,6 +113,7 @@ impl InstanceSet {
                 surfaces: inst.surfaces.clone().into_boxed_slice(),
             });
         }
+        let groups = bvhs.iter().any(|b| b.flat.is_none() && b.traverser.streams());
         let top = (!boxes.is_empty()).then(|| {
             let bvh = build_cwbvh::<Bounds>(&boxes, BvhBuildParams::medium_build(), &mut Duration::default());
             let traverser = Traverser::new(&bvh.nodes);
@@ -121,7 +125,14 @@ impl InstanceSet {
             placed,
             top,
             bounds,
+            groups,
         }
+    }
+
+    /// Whether batches should take [`InstanceSet::closest_hits_into`]: some mesh's tree is
+    /// large enough for its coherent rays to walk it in groups.
+    pub fn groups(&self) -> bool {
+        self.groups && self.top.is_some()
     }
 
     /// Whether there is no instance.
@@ -202,6 +213,78 @@ impl InstanceSet {
         let mut visitor = ClosestInstance { set: self, order: &bvh.primitive_indices, ray, best: None };
         traverser.closest(&bvh.nodes, &node_ray(ray), ray.t_max, &mut visitor);
         visitor.best.map(|(i, c)| (i, self.world_hit(i, &c, ray)))
+    }
+
+    /// [`InstanceSet::closest_hit`] of every ray beyond its hit so far in `out` (an instance
+    /// hit replaces it as in [`super::Accel::closest_hit`]): the launcher's batch query.
+    /// Runs of [`GROUP_WIDTH`] coherent rays ([`split_coherent`]) walk the top level as a
+    /// group, nearest boxes first, each ray culled by its closest hit so far; at each
+    /// instance the run's rays that reach it go into its frame together and walk its tree as
+    /// a group ([`MeshBvh::closest_lanes_grouped`]), as the rays of a flattened scene walk
+    /// its one tree. The other rays go one by one. Each instance is tested with the same
+    /// ray and distance limit as by the one-by-one query, so the distances are the same bit
+    /// for bit; only on an exact tie may the triangle be another one.
+    pub fn closest_hits_into(&self, rays: &[Ray], out: &mut [Option<Hit>]) {
+        let Some((bvh, traverser)) = &self.top else { return };
+        let limit = |ray: &Ray, hit: &Option<Hit>| Ray { t_max: hit.map_or(ray.t_max, |h| h.t), ..*ray };
+        let size_m = (self.bounds.1 - self.bounds.0).max_element();
+        let (grouped, alone) = split_coherent(rays, size_m);
+        for &i in &alone {
+            let i = i as usize;
+            if let Some(h) = self.closest_hit(&limit(&rays[i], &out[i])) {
+                out[i] = Some(h);
+            }
+        }
+        let (mut top_stack, mut stack) = (Vec::new(), Vec::new());
+        let (mut world, mut node_rays, mut t_max) = (Vec::new(), Vec::new(), Vec::new());
+        let (mut local, mut ids) = (Vec::new(), Vec::new());
+        let mut best: Vec<Option<(u32, ClosestLane)>> = Vec::new();
+        for run in grouped.chunks(GROUP_WIDTH) {
+            world.clear();
+            world.extend(run.iter().map(|&i| limit(&rays[i as usize], &out[i as usize])));
+            node_rays.clear();
+            node_rays.extend(world.iter().map(node_ray));
+            t_max.clear();
+            t_max.extend(world.iter().map(|r| r.t_max));
+            best.clear();
+            best.resize(run.len(), None);
+            let order = &bvh.primitive_indices;
+            traverser.closest_one_group(
+                &bvh.nodes,
+                &node_rays,
+                &mut t_max,
+                &mut top_stack,
+                |first, count, mask, t| {
+                    for &inst in &order[first as usize..(first + count) as usize] {
+                        let p = &self.placed[inst as usize];
+                        local.clear();
+                        ids.clear();
+                        let mut m = mask;
+                        while m != 0 {
+                            let r = m.trailing_zeros() as usize;
+                            m &= m - 1;
+                            local.push(p.to_object(&world[r], t[r]));
+                            ids.push(r);
+                        }
+                        self.meshes[p.mesh as usize].closest_lanes_grouped(&local, &mut stack, |k, lane| {
+                            let r = ids[k];
+                            // As in the single-ray query: only a strictly closer hit replaces one.
+                            if let Some(c) = lane
+                                && (best[r].is_none() || c.t < t[r])
+                            {
+                                t[r] = c.t;
+                                best[r] = Some((inst, c));
+                            }
+                        });
+                    }
+                },
+            );
+            for (r, &i) in run.iter().enumerate() {
+                if let Some((inst, c)) = &best[r] {
+                    out[i as usize] = Some(self.world_hit(*inst, c, &rays[i as usize]));
+                }
+            }
+        }
     }
 
     /// The mesh (index into the build's mesh list) that instance `index` places.
@@ -417,6 +500,62 @@ mod tests {
             assert_eq!(*hit, accel.closest_hit(ray));
             assert_eq!(hit.is_some(), accel.occluded(ray));
         }
+    }
+
+    #[test]
+    fn the_grouped_batch_query_gives_the_single_ray_hits() {
+        let meshes = meshes();
+        let instances = instances(200);
+        let mut set = InstanceSet::build(&meshes, &instances, BuildQuality::default());
+        // The 3000-triangle tree is below the stream size: walk it in groups all the same.
+        set.meshes[0].traverser = set.meshes[0].traverser.with_streams(true);
+        set.groups = true;
+        let spheres = vec![
+            crate::core::sphere::Sphere::new(Vec3::new(1.0, 2.0, 0.5), 3.0, 9),
+            crate::core::sphere::Sphere::new(Vec3::new(-8.0, 5.0, -2.0), 2.0, 9),
+        ];
+        let accel =
+            Accel::build(&TriangleMesh::default(), spheres, BuildQuality::default()).with_instances(set);
+        assert!(accel.instances.groups());
+        // Camera-like fans (coherent runs of 32) from several eyes, then random rays.
+        let mut rays = Vec::new();
+        for (e, eye) in [Vec3::new(-25.0, -25.0, 20.0), Vec3::new(0.0, 0.0, 0.0), Vec3::new(30.0, 3.0, -4.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let forward = -eye.normalize_or(Vec3::X);
+            let right = forward.cross(Vec3::Z).normalize();
+            let up = right.cross(forward);
+            for k in 0..4096 {
+                let (u, v) = ((k % 64) as f32 / 64.0 - 0.5, (k / 64) as f32 / 64.0 - 0.5);
+                let dir = (forward + 0.3 * u * right + 0.3 * v * up).normalize();
+                let t_max = if e == 1 { 12.0 } else { f32::INFINITY };
+                rays.push(Ray::segment(eye, dir, t_max));
+            }
+        }
+        for k in 0..2048u64 {
+            let mut r = stream(15, 0, k);
+            let o = Vec3::new(uniform(&mut r), uniform(&mut r), uniform(&mut r)) * 40.0 - 20.0;
+            rays.push(Ray::new(o, uniform_sphere(Vec2::new(uniform(&mut r), uniform(&mut r)))));
+        }
+        let (lo, hi) = accel.instances.bounds();
+        let (grouped, _) = split_coherent(&rays, (hi - lo).max_element());
+        assert!(grouped.len() >= 3 * 4096, "{} rays in coherent runs", grouped.len());
+        let mut out = vec![None; rays.len()];
+        for (block, hits) in rays.chunks(1024).zip(out.chunks_mut(1024)) {
+            accel.closest_hits_into(block, hits);
+        }
+        let (mut hits, mut same) = (0, 0);
+        for (k, (ray, hit)) in rays.iter().zip(&out).enumerate() {
+            let want = accel.closest_hit(ray);
+            assert_eq!(hit.map(|h| h.t.to_bits()), want.map(|h| h.t.to_bits()), "ray {k}");
+            if let (Some(a), Some(b)) = (hit, want) {
+                hits += 1;
+                same += usize::from(*a == b);
+            }
+        }
+        // Only exact ties (an edge shared by two triangles) may pick the other triangle.
+        assert!(hits > 8_000 && same * 1000 >= hits * 999, "{same} of {hits}");
     }
 
     #[test]

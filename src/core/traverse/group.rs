@@ -164,6 +164,57 @@ fn closest_group_step<G: GroupTest, V: ClosestLeaves>(nodes: &[CwBvhNode], g: &m
     }
 }
 
+/// One group's closest-hit walk with a leaf test for the whole group, for trees that stay
+/// in the cache (the levels of an instanced scene): `leaf(first, count, mask, t_max)` tests
+/// leaf `(first, count)` for the rays of `mask`, lowering their `t_max` on closer hits.
+/// Children are visited and culled as in [`closest_group_step`].
+#[inline(always)]
+pub(super) fn walk_one_group<G: GroupTest>(
+    nodes: &[CwBvhNode],
+    rays: &[NodeRay],
+    t_max: &mut [f32],
+    stack: &mut Vec<(u32, u32, f32)>,
+    mut leaf: impl FnMut(u32, u32, u32, &mut [f32]),
+) {
+    let n = rays.len().min(GROUP_WIDTH);
+    if n == 0 || nodes.is_empty() {
+        return;
+    }
+    stack.clear();
+    let (mut current, mut mask) = (0u32, if n == 32 { u32::MAX } else { (1u32 << n) - 1 });
+    loop {
+        if current & LEAF_FLAG != 0 {
+            let (first, count) = leaf_of(current);
+            leaf(first, count, mask, t_max);
+        } else {
+            let node = &nodes[current as usize];
+            let (masks, distances, any) = G::hits(node, rays, t_max, mask);
+            if any != 0 {
+                let imask = node.inner_mask();
+                let (order, k) =
+                    far_to_near(any, |slot| ((item_id(node, imask, slot), masks[slot]), distances[slot]));
+                stack.extend(order[..k - 1].iter().map(|&((id, m), t)| (id, m, t)));
+                ((current, mask), _) = order[k - 1];
+                continue;
+            }
+        }
+        loop {
+            let Some((id, mut m, t)) = stack.pop() else { return };
+            // The rays whose closest hit so far is not nearer than the entry distance.
+            let mut keep = 0;
+            while m != 0 {
+                let r = m.trailing_zeros() as usize;
+                m &= m - 1;
+                keep |= u32::from(t <= t_max[r]) << r;
+            }
+            if keep != 0 {
+                (current, mask) = (id, keep);
+                break;
+            }
+        }
+    }
+}
+
 impl<V: ClosestLeaves> Group<V> {
     /// Hands each ray's leaf test back to `finish(i, leaves)`.
     pub(super) fn leaf_tests(&mut self, finish: &mut impl FnMut(usize, V)) {
