@@ -47,6 +47,24 @@ impl Ray {
         Self::new(offset_origin(point, geometric_normal, dir), dir)
     }
 
+    /// The visibility segment between two surface points, `x` (geometric normal `n`) and `y`
+    /// (geometric normal `m`): both ends pushed off their surfaces towards each other and the
+    /// direction taken between the pushed ends (pbrt-v4's `SpawnRayTo` between two
+    /// interactions, [pbrt-v4] sec. 6.8.6), so that neither surface is hit. [`Self::spawn_to`]
+    /// keeps the unpushed target, so at grazing angles near an edge two surfaces share, its
+    /// segment can end inside the target's surface: the corner test below measured 3.3e-4 of
+    /// the transport blocked that way.
+    pub fn between(x: Vec3, n: Vec3, y: Vec3, m: Vec3) -> Self {
+        let from = offset_origin(x, n, y - x);
+        let to = offset_origin(y, m, x - y);
+        let d = to - from;
+        let len = d.length();
+        if !(len > 0.0 && len.is_finite()) {
+            return Self::segment(from, n, 0.0);
+        }
+        Self::segment(from, d / len, len * (1.0 - 1.0e-5))
+    }
+
     /// A shadow/visibility segment from a surface point towards `target`, stopping just short
     /// of it; `t` is in units of the (unit) direction, i.e. metres.
     pub fn spawn_to(point: Vec3, geometric_normal: Vec3, target: Vec3) -> Self {
@@ -140,6 +158,58 @@ mod tests {
         assert!(down.origin.z < 0.0);
         // The offset is tiny compared with scene scale.
         assert!(up.origin.z < 1e-2);
+    }
+
+    #[test]
+    fn shadow_rays_between_two_walls_of_a_corner_are_never_blocked() {
+        // A floor (z = 0) and a wall (x = 0) meeting at a right angle, at coordinates up to
+        // 10 m from the origin: every point of the floor sees every point of the wall, so no
+        // shadow segment from one to the other may be blocked, even at the grazing angles near
+        // the common edge. Counted over 20,000 pairs weighted by the light transport's
+        // geometric term cos cos / r^2, the blocked share must be nil (below 1e-5) with
+        // `Ray::between`; `Ray::spawn_to`, which does not push the target off its surface,
+        // loses 3.3e-4 (the test can fail).
+        use crate::core::accel::{Accel, BuildQuality};
+        use crate::core::mesh::TriangleMesh;
+        use crate::core::rng::{Rng64, uniform};
+        let mut m = TriangleMesh::default();
+        let s = m.surface_id("s");
+        let base = Vec3::new(0.0, 7.0, 0.0);
+        m.push_quad(
+            base,
+            base + Vec3::new(3.0, 0.0, 0.0),
+            base + Vec3::new(3.0, 3.0, 0.0),
+            base + Vec3::new(0.0, 3.0, 0.0),
+            s,
+        );
+        m.push_quad(
+            base,
+            base + Vec3::new(0.0, 3.0, 0.0),
+            base + Vec3::new(0.0, 3.0, 3.0),
+            base + Vec3::new(0.0, 0.0, 3.0),
+            s,
+        );
+        let accel = Accel::build(&m, Vec::new(), BuildQuality::High);
+        let mut rng = crate::core::rng::stream(7, 0, 0);
+        let (mut blocked, mut blocked_one_end, mut total) = (0.0f64, 0.0f64, 0.0f64);
+        for _ in 0..20_000 {
+            // Points bunched towards the common edge (u^4), where the angles graze.
+            let f = |rng: &mut Rng64| 3.0 * uniform(rng).powi(4);
+            let x = base + Vec3::new(f(&mut rng), 3.0 * uniform(&mut rng), 0.0);
+            let y = base + Vec3::new(0.0, 3.0 * uniform(&mut rng), f(&mut rng));
+            let d = y - x;
+            let g = f64::from(d.z.max(0.0) * (-d.x).max(0.0) / d.length_squared().powi(2));
+            total += g;
+            if accel.occluded(&Ray::between(x, Vec3::Z, y, Vec3::X)) {
+                blocked += g;
+            }
+            if accel.occluded(&Ray::spawn_to(x, Vec3::Z, y)) {
+                blocked_one_end += g;
+            }
+        }
+        eprintln!("blocked share {:.3e}, one end pushed {:.3e}", blocked / total, blocked_one_end / total);
+        assert!(blocked / total < 1e-5, "blocked share {:.3e}", blocked / total);
+        assert!(blocked_one_end / total > 1e-5, "spawn_to lost {:.3e}", blocked_one_end / total);
     }
 
     #[test]

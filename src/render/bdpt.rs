@@ -272,7 +272,12 @@ fn light_normal(scene: &RenderScene, l: usize, p: Vec3) -> Vec3 {
 /// Whether the segment between two vertices is blocked.
 fn blocked(scene: &RenderScene, a: &Vertex, b: &Vertex, rays: &mut u64) -> bool {
     *rays += 1;
-    scene.accel.occluded(&Ray::spawn_to(a.p, a.n, b.p))
+    let segment = if a.on_surface() && b.on_surface() {
+        Ray::between(a.p, a.n, b.p, b.n)
+    } else {
+        Ray::spawn_to(a.p, a.n, b.p)
+    };
+    scene.accel.occluded(&segment)
 }
 
 /// `(pdf_rev, pdf_fwd, delta)` of a vertex, as the MIS weight reads them.
@@ -454,7 +459,11 @@ fn connect(
             return None;
         }
         *rays += 1;
-        if scene.accel.occluded(&Ray::spawn_to(pt.p, pt.n, ls.shadow_point)) {
+        let segment = match ls.shadow_normal {
+            Some(m) if pt.on_surface() => Ray::between(pt.p, pt.n, ls.shadow_point, m),
+            _ => Ray::spawn_to(pt.p, pt.n, ls.shadow_point),
+        };
+        if scene.accel.occluded(&segment) {
             return None;
         }
         sampled = Some(v);

@@ -76,6 +76,9 @@ pub struct LightSample {
     /// bulb's direct light on a floor against the closed form. The segment to the near side of
     /// a convex light cannot cross the light itself, so stopping short loses nothing.
     pub shadow_point: Vec3,
+    /// The light's geometric normal at `shadow_point` when it lies on a flat emitter: the
+    /// shadow segment is then pushed off both surfaces ([`crate::core::ray::Ray::between`]).
+    pub shadow_normal: Option<Vec3>,
 }
 
 impl Light {
@@ -127,6 +130,7 @@ impl Light {
                     pdf: 1.0,
                     delta: true,
                     shadow_point: position,
+                    shadow_normal: None,
                 })
             }
             Light::Triangle { p0, e1, e2, normal, area, le } => {
@@ -141,7 +145,16 @@ impl Light {
                     return None;
                 }
                 let pdf = d2 / (cos_l * area);
-                Some(LightSample { wi, distance, point: q, li: le, pdf, delta: false, shadow_point: q })
+                Some(LightSample {
+                    wi,
+                    distance,
+                    point: q,
+                    li: le,
+                    pdf,
+                    delta: false,
+                    shadow_point: q,
+                    shadow_normal: Some(normal),
+                })
             }
             Light::Sphere { center, radius, le } => {
                 let to_c = center - p;
@@ -175,6 +188,7 @@ impl Light {
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
                     delta: false,
                     shadow_point: p + wi * (distance * (1.0 - 1.0e-3)),
+                    shadow_normal: None,
                 })
             }
         }

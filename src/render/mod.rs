@@ -422,6 +422,16 @@ impl<'a> RenderScene<'a> {
     pub fn occluded(&self, hit: &Hit, target: Vec3) -> bool {
         self.accel.occluded(&Ray::spawn_to(hit.point, hit.normal, target))
     }
+
+    /// True when the shadow segment from `hit` to the light sample `ls` is blocked (pushed
+    /// off both surfaces when the light point lies on a flat emitter).
+    #[inline]
+    pub fn light_blocked(&self, hit: &Hit, ls: &lights::LightSample) -> bool {
+        match ls.shadow_normal {
+            Some(m) => self.accel.occluded(&Ray::between(hit.point, hit.normal, ls.shadow_point, m)),
+            None => self.occluded(hit, ls.shadow_point),
+        }
+    }
 }
 
 /// A local shading frame whose z axis is a surface normal.

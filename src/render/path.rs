@@ -57,7 +57,7 @@ pub fn sample_direct(scene: &RenderScene, v: &Vertex, u: Vec2, rays: &mut u64, m
         return Vec3::ZERO;
     }
     *rays += 1;
-    if scene.occluded(v.hit, ls.shadow_point) {
+    if scene.light_blocked(v.hit, &ls) {
         return Vec3::ZERO;
     }
     if ls.delta {

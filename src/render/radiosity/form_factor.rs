@@ -28,7 +28,6 @@ use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
-use crate::core::ray::offset_origin;
 use crate::core::rng::{Rng64, uniform};
 use crate::core::sampling::{stratified_2d, uniform_triangle};
 use crate::core::{Accel, Ray};
@@ -201,22 +200,6 @@ pub fn from_point(p: &Tri, x: Vec3, q: &Tri) -> [[f32; 2]; 2] {
     f
 }
 
-/// The shadow segment between surface points `x` (normal `n`) and `y` (normal `m`): both
-/// ends pushed off their surfaces towards each other ([`offset_origin`]) and the direction
-/// taken between the pushed ends, so that neither surface is hit. (`Ray::spawn_to` keeps the
-/// direction from the unpushed point: at grazing angles that line reaches the target's plane
-/// before the target, which hid half of a Cornell block's view of the front wall.)
-pub fn segment(x: Vec3, n: Vec3, y: Vec3, m: Vec3) -> Ray {
-    let from = offset_origin(x, n, y - x);
-    let to = offset_origin(y, m, x - y);
-    let d = to - from;
-    let len = d.length();
-    if !(len > 0.0 && len.is_finite()) {
-        return Ray::segment(from, n, 0.0);
-    }
-    Ray::segment(from, d / len, len * (1.0 - 1.0e-5))
-}
-
 /// The form factor from `p` to `q` by the estimator of the module's doc with `samples` points
 /// on `p` (a square number of strata, at least 1), drawing from `rng`; occlusion is tested on
 /// `accel` (pass `None` for an empty scene). Returns the side pairs and the rays cast.
@@ -262,7 +245,7 @@ pub fn estimate(
                 }
                 rays += 1;
                 weight[a][b] += w;
-                if !accel.occluded(&segment(x, n, y, q.normal)) {
+                if !accel.occluded(&Ray::between(x, n, y, q.normal)) {
                     visible[a][b] += w;
                 }
             }
