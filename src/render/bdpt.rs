@@ -20,9 +20,10 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::light::importance_weight;
+use super::sampler::Uniforms;
 use super::splat::{SplatFilm, finish};
 use super::{Bsdf, Camera, Film, Frame, RenderOutput, RenderScene, RenderSettings, TILE, u2};
-use crate::core::rng::{Rng64, uniform};
+use crate::core::rng::Rng64;
 use crate::core::{Hit, Ray};
 use crate::dist::Cluster;
 
@@ -66,13 +67,13 @@ pub struct Vertex {
 
 /// Transport mode of a subpath: radiance from the camera, importance from the lights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Mode {
+pub(super) enum Mode {
     Radiance,
     Importance,
 }
 
 impl Vertex {
-    fn endpoint(kind: VertexKind, p: Vec3, n: Vec3, beta: Vec3, light: Option<usize>) -> Self {
+    pub(super) fn endpoint(kind: VertexKind, p: Vec3, n: Vec3, beta: Vec3, light: Option<usize>) -> Self {
         Self {
             kind,
             p,
@@ -184,14 +185,14 @@ impl Vertex {
 /// `beta`, `pdf` the density per solid angle of `ray`'s direction, to at most `max_vertices`
 /// vertices. Returns the background radiance a camera subpath escaping the scene picks up.
 #[allow(clippy::too_many_arguments)]
-fn random_walk(
+pub(super) fn random_walk<R: Uniforms>(
     scene: &RenderScene,
     mut ray: Ray,
     mut beta: Vec3,
     pdf: f32,
     max_vertices: usize,
     mode: Mode,
-    rng: &mut Rng64,
+    rng: &mut R,
     path: &mut Vec<Vertex>,
     rays: &mut u64,
 ) -> Vec3 {
@@ -204,7 +205,8 @@ fn random_walk(
         let mut v = Vertex::surface(scene, &hit, -ray.dir, beta);
         let prev = path.len() - 1;
         v.pdf_fwd = path[prev].convert_density(pdf_fwd, &v);
-        let (u, uc, u_rr) = (u2(rng), uniform(rng), uniform(rng));
+        let u = rng.next_2d();
+        let (uc, u_rr) = (rng.next_1d(), rng.next_1d());
         path.push(v);
         if path.len() >= max_vertices {
             break;
@@ -238,17 +240,18 @@ fn random_walk(
 
 /// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
 /// then a walk of at most `max_depth` more vertices.
-fn light_subpath(
+pub(super) fn light_subpath<R: Uniforms>(
     scene: &RenderScene,
     max_depth: u32,
-    rng: &mut Rng64,
+    rng: &mut R,
     path: &mut Vec<Vertex>,
     rays: &mut u64,
 ) {
     path.clear();
-    let Some((index, pmf)) = scene.lights.choose(uniform(rng)) else { return };
+    let Some((index, pmf)) = scene.lights.choose(rng.next_1d()) else { return };
     let light = &scene.lights.lights[index];
-    let (u_pos, u_dir) = (u2(rng), u2(rng));
+    let u_pos = rng.next_2d();
+    let u_dir = rng.next_2d();
     let Some(e) = light.sample_le(u_pos, u_dir) else { return };
     let mut v0 = Vertex::endpoint(VertexKind::Light, e.point, e.normal, e.le, Some(index));
     v0.pdf_fwd = pmf * e.pdf_pos;
@@ -366,15 +369,11 @@ fn sample(
     rays: &mut u64,
 ) -> Vec3 {
     let (camera, light) = paths;
-    camera.clear();
     let o = u2(rng);
     let lens = if camera_model.aperture_radius_m > 0.0 { u2(rng) } else { Vec2::ZERO };
     let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-    let ray = camera_model.ray(fp, lens);
-    camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
-    let pdf_dir = camera_model.pdf_we(ray.origin, ray.dir).1;
     let max_depth = s.max_depth as usize;
-    let mut l = random_walk(scene, ray, Vec3::ONE, pdf_dir, max_depth + 2, Mode::Radiance, rng, camera, rays);
+    let mut l = camera_subpath(scene, camera_model, fp, lens, max_depth + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
     for t in 1..=camera.len() {
         for si in 0..=light.len() {
@@ -394,9 +393,30 @@ fn sample(
     l
 }
 
+/// The camera subpath through film point `fp` and lens point `lens` (both in [0,1)^2), at most
+/// `max_vertices` vertices with the lens point; returns the background radiance it picks up
+/// if it escapes the scene.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn camera_subpath<R: Uniforms>(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    fp: Vec2,
+    lens: Vec2,
+    max_vertices: usize,
+    rng: &mut R,
+    camera: &mut Vec<Vertex>,
+    rays: &mut u64,
+) -> Vec3 {
+    camera.clear();
+    let ray = camera_model.ray(fp, lens);
+    camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+    let pdf_dir = camera_model.pdf_we(ray.origin, ray.dir).1;
+    random_walk(scene, ray, Vec3::ONE, pdf_dir, max_vertices, Mode::Radiance, rng, camera, rays)
+}
+
 /// The weighted contribution of strategy `(s, t)`, and for `t = 1` the film point to splat it on.
 #[allow(clippy::too_many_arguments)]
-fn connect(
+pub(super) fn connect(
     scene: &RenderScene,
     camera_model: &Camera,
     light: &[Vertex],
