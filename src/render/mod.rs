@@ -1,6 +1,7 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
 //! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
-//! `ppm`, and the view-independent `radiosity`) over the shared tracing core.
+//! `ppm`, Metropolis light transport `pssmlt`, and the view-independent `radiosity`) over the
+//! shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
