@@ -301,52 +301,83 @@ fn mis_weight(
     let qs_minus = (s > 1).then(|| light[s - 2]);
     let pt_minus = (t > 1).then(|| camera[t - 2]);
     let d = |v: &Vertex| -> Densities { (v.pdf_rev, v.pdf_fwd, v.delta) };
-    let mut cam: Vec<Densities> = camera[..t].iter().map(d).collect();
-    cam[t - 1] = d(&pt);
-    let mut lig: Vec<Densities> = light[..s].iter().map(d).collect();
-    if let Some(q) = &qs {
-        lig[s - 1] = d(q);
-    }
+    // The densities of the joined path's vertices: the subpaths' own, but for the (at most
+    // two) vertices at each end of the join, which are computed here. Read in place rather
+    // than copied, which saves two allocations a join.
     // The joined vertices are not Dirac, whatever their BSDF.
-    cam[t - 1].2 = false;
-    if s > 0 {
-        lig[s - 1].2 = false;
-    }
-    cam[t - 1].0 = match &qs {
+    let mut cam_last = d(&pt);
+    cam_last.2 = false;
+    cam_last.0 = match &qs {
         Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
         None => pt.pdf_light_origin(scene),
     };
-    if let Some(pm) = &pt_minus {
-        cam[t - 2].0 = match &qs {
+    let cam_prev = pt_minus.as_ref().map(|pm| {
+        let mut c = d(&camera[t - 2]);
+        c.0 = match &qs {
             Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
             None => pt.pdf_light(scene, pm),
         };
-    }
-    if let Some(q) = &qs {
-        lig[s - 1].0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
-    }
-    if let (Some(q), Some(qm)) = (&qs, &qs_minus) {
-        lig[s - 2].0 = q.pdf(scene, camera_model, Some(&pt), qm);
-    }
+        c
+    });
+    let lig_last = qs.as_ref().map(|q| {
+        let mut l = d(q);
+        l.2 = false;
+        l.0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
+        l
+    });
+    let lig_prev = match (&qs, &qs_minus) {
+        (Some(q), Some(qm)) => {
+            let mut l = d(&light[s - 2]);
+            l.0 = q.pdf(scene, camera_model, Some(&pt), qm);
+            Some(l)
+        }
+        _ => None,
+    };
+    let cam_at = |i: usize| -> Densities {
+        if i + 1 == t {
+            cam_last
+        } else if i + 2 == t
+            && let Some(c) = cam_prev
+        {
+            c
+        } else {
+            d(&camera[i])
+        }
+    };
+    let lig_at = |i: usize| -> Densities {
+        if i + 1 == s
+            && let Some(l) = lig_last
+        {
+            l
+        } else if i + 2 == s
+            && let Some(l) = lig_prev
+        {
+            l
+        } else {
+            d(&light[i])
+        }
+    };
     let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
     let mut sum = 0.0f32;
     let mut ri = 1.0f32;
     for i in (1..t).rev() {
-        ri *= remap(cam[i].0) / remap(cam[i].1);
-        if !cam[i].2 && !cam[i - 1].2 {
+        let (c, c_before) = (cam_at(i), cam_at(i - 1));
+        ri *= remap(c.0) / remap(c.1);
+        if !c.2 && !c_before.2 {
             sum += ri;
         }
     }
     ri = 1.0;
     for i in (0..s).rev() {
-        ri *= remap(lig[i].0) / remap(lig[i].1);
+        let l = lig_at(i);
+        ri *= remap(l.0) / remap(l.1);
         let delta_before = if i > 0 {
-            lig[i - 1].2
+            lig_at(i - 1).2
         } else {
             let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { &light[0] };
             first.light.is_some_and(|l| scene.lights.lights[l].is_delta())
         };
-        if !lig[i].2 && !delta_before {
+        if !l.2 && !delta_before {
             sum += ri;
         }
     }
