@@ -366,7 +366,7 @@ pub fn render_on(
             || (SplatFilm::new(w, h), 0u64),
             |(mut film, mut rays), &k| {
                 let (first, end) = chain_range(k);
-                if total > 0.0 {
+                if total > 0.0 && end > first {
                     run_chain(scene, camera, settings, k, end - first, &cdf, &mut film, &mut rays);
                 }
                 progress(end / u64::from(mpp) - first / u64::from(mpp));
