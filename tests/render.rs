@@ -6,6 +6,7 @@ mod common;
 use common::render::{go, settings};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
+use propsim::render::pssmlt::MltOptions;
 use propsim::render::{Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics};
 use propsim::scene::{self, LoadOptions, World};
 
@@ -37,6 +38,18 @@ fn white_furnace_converges_to_le_over_one_minus_r() {
                 "{integrator:?} r {r}: {mean} vs {expect}"
             );
             assert!(film.pixels.iter().all(|p| p.is_finite() && p.min_element() > 0.0));
+        }
+        // Metropolis light transport: its image is scaled by a bootstrap estimate of the
+        // luminance integral (here 10,000 samples a depth); the chains spread the same
+        // number of mutations as the others' paths, so the tolerance is the same 1 %.
+        {
+            let mut s = settings(24, 32, 200, IntegratorKind::Pssmlt, 1);
+            s.mlt.bootstrap = 10_000;
+            let film = go(&scene, &cam, &s);
+            let mean = film.mean();
+            eprintln!("white furnace r {r}, Le {le}, Pssmlt: mean {mean}, expected {expect}");
+            assert!((mean - Vec3::splat(expect)).abs().max_element() < 0.01 * expect, "Pssmlt r {r}: {mean}");
+            assert!(film.pixels.iter().all(|p| p.is_finite()));
         }
         // The photon mappers are biased: a visible point within its radius r of an edge of
         // the box gathers photons of the neighbouring wall, whose arrival directions half
@@ -310,6 +323,7 @@ fn same_seed_same_image_on_one_and_two_threads() {
         IntegratorKind::Bdpt,
         IntegratorKind::Sppm,
         IntegratorKind::Ppm,
+        IntegratorKind::Pssmlt,
     ] {
         let s = RenderSettings {
             width: 45,
@@ -318,6 +332,8 @@ fn same_seed_same_image_on_one_and_two_threads() {
             max_depth: 8,
             integrator,
             seed: 42,
+            // pssmlt: fewer bootstrap samples and chains than the defaults, for speed.
+            mlt: MltOptions { bootstrap: 4000, chains: 64, ..MltOptions::default() },
             ..RenderSettings::default()
         };
         let run = |threads: usize| {

@@ -21,7 +21,7 @@ pub struct BenchRenderArgs {
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,
     /// raycast, whitted, distributed, path, light, bdpt, sppm or ppm (spp = iterations, one
-    /// photon a pixel an iteration), or radiosity.
+    /// photon a pixel an iteration), radiosity, or pssmlt (spp = mutations per pixel).
     #[arg(long, default_value = "path")]
     pub integrator: String,
     /// Timed runs; the median is reported.
@@ -49,6 +49,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         clamp_indirect: None,
         photons: Default::default(),
         radiosity: Default::default(),
+        mlt: Default::default(),
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(

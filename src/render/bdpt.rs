@@ -20,9 +20,10 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::light::importance_weight;
+use super::sampler::Uniforms;
 use super::splat::{SplatFilm, finish};
 use super::{Bsdf, Camera, Film, Frame, RenderOutput, RenderScene, RenderSettings, TILE, u2};
-use crate::core::rng::{Rng64, uniform};
+use crate::core::rng::Rng64;
 use crate::core::{Hit, Ray};
 use crate::dist::Cluster;
 
@@ -66,13 +67,13 @@ pub struct Vertex {
 
 /// Transport mode of a subpath: radiance from the camera, importance from the lights.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Mode {
+pub(super) enum Mode {
     Radiance,
     Importance,
 }
 
 impl Vertex {
-    fn endpoint(kind: VertexKind, p: Vec3, n: Vec3, beta: Vec3, light: Option<usize>) -> Self {
+    pub(super) fn endpoint(kind: VertexKind, p: Vec3, n: Vec3, beta: Vec3, light: Option<usize>) -> Self {
         Self {
             kind,
             p,
@@ -184,14 +185,14 @@ impl Vertex {
 /// `beta`, `pdf` the density per solid angle of `ray`'s direction, to at most `max_vertices`
 /// vertices. Returns the background radiance a camera subpath escaping the scene picks up.
 #[allow(clippy::too_many_arguments)]
-fn random_walk(
+pub(super) fn random_walk<R: Uniforms>(
     scene: &RenderScene,
     mut ray: Ray,
     mut beta: Vec3,
     pdf: f32,
     max_vertices: usize,
     mode: Mode,
-    rng: &mut Rng64,
+    rng: &mut R,
     path: &mut Vec<Vertex>,
     rays: &mut u64,
 ) -> Vec3 {
@@ -204,7 +205,8 @@ fn random_walk(
         let mut v = Vertex::surface(scene, &hit, -ray.dir, beta);
         let prev = path.len() - 1;
         v.pdf_fwd = path[prev].convert_density(pdf_fwd, &v);
-        let (u, uc, u_rr) = (u2(rng), uniform(rng), uniform(rng));
+        let u = rng.next_2d();
+        let (uc, u_rr) = (rng.next_1d(), rng.next_1d());
         path.push(v);
         if path.len() >= max_vertices {
             break;
@@ -238,17 +240,18 @@ fn random_walk(
 
 /// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
 /// then a walk of at most `max_depth` more vertices.
-fn light_subpath(
+pub(super) fn light_subpath<R: Uniforms>(
     scene: &RenderScene,
     max_depth: u32,
-    rng: &mut Rng64,
+    rng: &mut R,
     path: &mut Vec<Vertex>,
     rays: &mut u64,
 ) {
     path.clear();
-    let Some((index, pmf)) = scene.lights.choose(uniform(rng)) else { return };
+    let Some((index, pmf)) = scene.lights.choose(rng.next_1d()) else { return };
     let light = &scene.lights.lights[index];
-    let (u_pos, u_dir) = (u2(rng), u2(rng));
+    let u_pos = rng.next_2d();
+    let u_dir = rng.next_2d();
     let Some(e) = light.sample_le(u_pos, u_dir) else { return };
     let mut v0 = Vertex::endpoint(VertexKind::Light, e.point, e.normal, e.le, Some(index));
     v0.pdf_fwd = pmf * e.pdf_pos;
@@ -303,52 +306,83 @@ fn mis_weight(
     let qs_minus = (s > 1).then(|| light[s - 2]);
     let pt_minus = (t > 1).then(|| camera[t - 2]);
     let d = |v: &Vertex| -> Densities { (v.pdf_rev, v.pdf_fwd, v.delta) };
-    let mut cam: Vec<Densities> = camera[..t].iter().map(d).collect();
-    cam[t - 1] = d(&pt);
-    let mut lig: Vec<Densities> = light[..s].iter().map(d).collect();
-    if let Some(q) = &qs {
-        lig[s - 1] = d(q);
-    }
+    // The densities of the joined path's vertices: the subpaths' own, but for the (at most
+    // two) vertices at each end of the join, which are computed here. Read in place rather
+    // than copied, which saves two allocations a join.
     // The joined vertices are not Dirac, whatever their BSDF.
-    cam[t - 1].2 = false;
-    if s > 0 {
-        lig[s - 1].2 = false;
-    }
-    cam[t - 1].0 = match &qs {
+    let mut cam_last = d(&pt);
+    cam_last.2 = false;
+    cam_last.0 = match &qs {
         Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
         None => pt.pdf_light_origin(scene),
     };
-    if let Some(pm) = &pt_minus {
-        cam[t - 2].0 = match &qs {
+    let cam_prev = pt_minus.as_ref().map(|pm| {
+        let mut c = d(&camera[t - 2]);
+        c.0 = match &qs {
             Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
             None => pt.pdf_light(scene, pm),
         };
-    }
-    if let Some(q) = &qs {
-        lig[s - 1].0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
-    }
-    if let (Some(q), Some(qm)) = (&qs, &qs_minus) {
-        lig[s - 2].0 = q.pdf(scene, camera_model, Some(&pt), qm);
-    }
+        c
+    });
+    let lig_last = qs.as_ref().map(|q| {
+        let mut l = d(q);
+        l.2 = false;
+        l.0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
+        l
+    });
+    let lig_prev = match (&qs, &qs_minus) {
+        (Some(q), Some(qm)) => {
+            let mut l = d(&light[s - 2]);
+            l.0 = q.pdf(scene, camera_model, Some(&pt), qm);
+            Some(l)
+        }
+        _ => None,
+    };
+    let cam_at = |i: usize| -> Densities {
+        if i + 1 == t {
+            cam_last
+        } else if i + 2 == t
+            && let Some(c) = cam_prev
+        {
+            c
+        } else {
+            d(&camera[i])
+        }
+    };
+    let lig_at = |i: usize| -> Densities {
+        if i + 1 == s
+            && let Some(l) = lig_last
+        {
+            l
+        } else if i + 2 == s
+            && let Some(l) = lig_prev
+        {
+            l
+        } else {
+            d(&light[i])
+        }
+    };
     let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
     let mut sum = 0.0f32;
     let mut ri = 1.0f32;
     for i in (1..t).rev() {
-        ri *= remap(cam[i].0) / remap(cam[i].1);
-        if !cam[i].2 && !cam[i - 1].2 {
+        let (c, c_before) = (cam_at(i), cam_at(i - 1));
+        ri *= remap(c.0) / remap(c.1);
+        if !c.2 && !c_before.2 {
             sum += ri;
         }
     }
     ri = 1.0;
     for i in (0..s).rev() {
-        ri *= remap(lig[i].0) / remap(lig[i].1);
+        let l = lig_at(i);
+        ri *= remap(l.0) / remap(l.1);
         let delta_before = if i > 0 {
-            lig[i - 1].2
+            lig_at(i - 1).2
         } else {
             let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { &light[0] };
             first.light.is_some_and(|l| scene.lights.lights[l].is_delta())
         };
-        if !lig[i].2 && !delta_before {
+        if !l.2 && !delta_before {
             sum += ri;
         }
     }
@@ -371,15 +405,11 @@ fn sample(
     rays: &mut u64,
 ) -> Vec3 {
     let (camera, light) = paths;
-    camera.clear();
     let o = u2(rng);
     let lens = if camera_model.aperture_radius_m > 0.0 { u2(rng) } else { Vec2::ZERO };
     let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-    let ray = camera_model.ray(fp, lens);
-    camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
-    let pdf_dir = camera_model.pdf_we(ray.origin, ray.dir).1;
     let max_depth = s.max_depth as usize;
-    let mut l = random_walk(scene, ray, Vec3::ONE, pdf_dir, max_depth + 2, Mode::Radiance, rng, camera, rays);
+    let mut l = camera_subpath(scene, camera_model, fp, lens, max_depth + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
     for t in 1..=camera.len() {
         for si in 0..=light.len() {
@@ -399,9 +429,30 @@ fn sample(
     l
 }
 
+/// The camera subpath through film point `fp` and lens point `lens` (both in [0,1)^2), at most
+/// `max_vertices` vertices with the lens point; returns the background radiance it picks up
+/// if it escapes the scene.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn camera_subpath<R: Uniforms>(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    fp: Vec2,
+    lens: Vec2,
+    max_vertices: usize,
+    rng: &mut R,
+    camera: &mut Vec<Vertex>,
+    rays: &mut u64,
+) -> Vec3 {
+    camera.clear();
+    let ray = camera_model.ray(fp, lens);
+    camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+    let pdf_dir = camera_model.pdf_we(ray.origin, ray.dir).1;
+    random_walk(scene, ray, Vec3::ONE, pdf_dir, max_vertices, Mode::Radiance, rng, camera, rays)
+}
+
 /// The weighted contribution of strategy `(s, t)`, and for `t = 1` the film point to splat it on.
 #[allow(clippy::too_many_arguments)]
-fn connect(
+pub(super) fn connect(
     scene: &RenderScene,
     camera_model: &Camera,
     light: &[Vertex],

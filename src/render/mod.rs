@@ -1,6 +1,7 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
 //! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
-//! `ppm`, and the view-independent `radiosity`) over the shared tracing core.
+//! `ppm`, Metropolis light transport `pssmlt`, and the view-independent `radiosity`) over the
+//! shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -30,6 +31,7 @@ pub mod lights;
 pub mod options;
 pub mod path;
 pub mod photon_grid;
+pub mod pssmlt;
 pub mod radiosity;
 pub mod raycast;
 pub mod sampler;
@@ -95,12 +97,14 @@ pub enum IntegratorKind {
     Ppm,
     /// Hierarchical radiosity (Hanrahan et al. 1991), solved once and seen through the camera.
     Radiosity,
+    /// Primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002).
+    Pssmlt,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 9] =
-        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm", "radiosity"];
+    pub const NAMES: [&'static str; 10] =
+        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm", "radiosity", "pssmlt"];
 
     /// The integrator's name.
     pub fn name(self) -> &'static str {
@@ -115,7 +119,7 @@ impl IntegratorKind {
     /// Whether the integrator traces from the lights and splats onto the film (rendered by
     /// [`light::render_on`] or [`bdpt::render_on`], not pixel by pixel).
     pub fn splats(self) -> bool {
-        matches!(self, Self::Light | Self::Bdpt)
+        matches!(self, Self::Light | Self::Bdpt | Self::Pssmlt)
     }
 }
 
@@ -132,6 +136,7 @@ impl FromStr for IntegratorKind {
             "sppm" => Ok(Self::Sppm),
             "ppm" => Ok(Self::Ppm),
             "radiosity" => Ok(Self::Radiosity),
+            "pssmlt" => Ok(Self::Pssmlt),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -165,6 +170,8 @@ pub struct RenderSettings {
     pub photons: sppm::PhotonSettings,
     /// The radiosity integrator's options (patches, refinement, tolerance).
     pub radiosity: radiosity::RadiosityOptions,
+    /// The pssmlt integrator's options (chains, mutations, steps, bootstrap).
+    pub mlt: pssmlt::MltOptions,
 }
 
 impl Default for RenderSettings {
@@ -181,6 +188,7 @@ impl Default for RenderSettings {
             clamp_indirect: None,
             photons: sppm::PhotonSettings::default(),
             radiosity: radiosity::RadiosityOptions::default(),
+            mlt: pssmlt::MltOptions::default(),
         }
     }
 }
@@ -211,6 +219,7 @@ impl RenderSettings {
         }
         self.photons.validate()?;
         self.radiosity.validate()?;
+        self.mlt.validate(self.max_depth)?;
         self.display.validate()
     }
 }
@@ -525,7 +534,8 @@ pub fn radiance(
         | IntegratorKind::Bdpt
         | IntegratorKind::Sppm
         | IntegratorKind::Ppm
-        | IntegratorKind::Radiosity => {
+        | IntegratorKind::Radiosity
+        | IntegratorKind::Pssmlt => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -631,6 +641,7 @@ pub fn render_on(
     match settings.integrator {
         IntegratorKind::Light => return Ok(light::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Bdpt => return Ok(bdpt::render_on(cluster, scene, camera, settings, progress)),
+        IntegratorKind::Pssmlt => return Ok(pssmlt::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Sppm | IntegratorKind::Ppm => {
             return Ok(sppm::render_on(cluster, scene, camera, settings, progress));
         }

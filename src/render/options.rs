@@ -37,7 +37,8 @@ pub struct RenderOptions {
     pub max_depth: Option<u32>,
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
-    /// mapping) or radiosity (hierarchical radiosity) (default: the scene's, else path).
+    /// mapping), radiosity (hierarchical radiosity) or pssmlt (Metropolis light transport)
+    /// (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -80,6 +81,9 @@ pub struct RenderOptions {
     /// The radiosity integrator's options.
     #[command(flatten)]
     pub radiosity: super::radiosity::RadiosityOptions,
+    /// The pssmlt integrator's options.
+    #[command(flatten)]
+    pub mlt: super::pssmlt::MltOptions,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -124,6 +128,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         clamp_indirect: options.clamp_indirect,
         photons,
         radiosity: options.radiosity.clone(),
+        mlt: options.mlt.clone(),
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)

@@ -14,6 +14,27 @@ use glam::{Vec2, Vec4};
 
 use crate::core::rng::{Rng64, uniform};
 
+/// A source of uniform numbers in [0, 1) that a sampling routine draws from: a random
+/// stream, or the primary-sample vector that Metropolis light transport mutates
+/// ([`super::pssmlt::MltSampler`]; Kelemen et al. 2002), so that one routine serves both.
+pub trait Uniforms {
+    /// The next number in [0, 1).
+    fn next_1d(&mut self) -> f32;
+    /// The next pair in [0, 1)^2.
+    #[inline]
+    fn next_2d(&mut self) -> Vec2 {
+        let x = self.next_1d();
+        Vec2::new(x, self.next_1d())
+    }
+}
+
+impl Uniforms for Rng64 {
+    #[inline]
+    fn next_1d(&mut self) -> f32 {
+        uniform(self)
+    }
+}
+
 /// Samples of one sequence before the scramble changes (sobol_burley's index range).
 const SEQUENCE_LENGTH: u32 = 1 << 16;
 

@@ -70,9 +70,23 @@ impl SplatFilm {
 /// a pixel), the others `None`.
 pub(super) fn finish(
     cluster: &Cluster,
+    film: Film,
+    splats: SplatFilm,
+    spp: u32,
+    rays: u64,
+    start: Instant,
+) -> Option<RenderOutput> {
+    let samples = u64::from(film.width) * u64::from(film.height) * u64::from(spp);
+    finish_scaled(cluster, film, splats, 1.0 / f64::from(spp), samples, rays, start)
+}
+
+/// [`finish`] with the light image scaled by `scale`, reporting `samples` samples.
+pub(super) fn finish_scaled(
+    cluster: &Cluster,
     mut film: Film,
     mut splats: SplatFilm,
-    spp: u32,
+    scale: f64,
+    samples: u64,
     mut rays: u64,
     start: Instant,
 ) -> Option<RenderOutput> {
@@ -90,11 +104,9 @@ pub(super) fn finish(
         }
         rays = total_rays[0];
     }
-    let scale = 1.0 / f64::from(spp);
     for (i, p) in film.pixels.iter_mut().enumerate() {
         *p += splats.pixel(i, scale);
     }
-    let samples = u64::from(film.width) * u64::from(film.height) * u64::from(spp);
     Some(RenderOutput {
         film,
         samples,
