@@ -55,8 +55,11 @@ impl Ray {
     /// segment can end inside the target's surface: the corner test below measured 3.3e-4 of
     /// the transport blocked that way.
     pub fn between(x: Vec3, n: Vec3, y: Vec3, m: Vec3) -> Self {
-        let from = offset_origin(x, n, y - x);
-        let to = offset_origin(y, m, x - y);
+        // The sides by the unit direction, as the eight-lane path tracer computes it.
+        let to = y - x;
+        let w = to / to.length();
+        let from = offset_origin(x, n, w);
+        let to = offset_origin(y, m, -w);
         let d = to - from;
         let len = d.length();
         if !(len > 0.0 && len.is_finite()) {

@@ -92,8 +92,8 @@ struct Vertices {
 /// What the shading phase gives back.
 #[derive(Default)]
 struct Shaded {
-    /// Unoccluded direct light (`f |cos| Le w / pdf`), and the shadow ray: `Ray::spawn_to`
-    /// the light point, as origin, direction and length.
+    /// Unoccluded direct light (`f |cos| Le w / pdf`), and the shadow ray: `Ray::between`
+    /// the shading point and the light point, as origin, direction and length.
     direct: [Lanes; 3],
     /// 1 where a shadow ray is traced, else 0.
     shadow: Lanes,
@@ -216,13 +216,18 @@ fn shade(v: &Vertices) -> Shaded {
     let alive =
         lanes(|i| one_if(pdf[i] > 0.0) * (roulette[i] * survives[i] + (1.0 - roulette[i]) * nonzero[i]));
     let beta = vec3(|k, i| if v.u_roulette[i] >= 0.0 { beta[k][i] / q_max[i] } else { beta[k][i] });
-    // Ray::spawn_to the light point (along `wi`, the same arithmetic) and Ray::spawn.
+    // Ray::between the shading point and the light point (both pushed off their surfaces,
+    // the same arithmetic) and Ray::spawn.
     let shadow_origin = offset_origins(&v.point, &v.normal, &wi);
-    let rest = vec3(|k, i| q[k][i] - shadow_origin[k][i]);
+    let minus_wi = vec3(|k, i| -wi[k][i]);
+    let shadow_end = offset_origins(&q, ln, &minus_wi);
+    let rest = vec3(|k, i| shadow_end[k][i] - shadow_origin[k][i]);
     let rest2 = dot([&rest[0], &rest[1], &rest[2]], [&rest[0], &rest[1], &rest[2]]);
-    let shadow_t_max = lanes(|i| rest2[i].sqrt() * (1.0 - 1.0e-5));
+    let rest_len = lanes(|i| rest2[i].sqrt());
+    let shadow_dir = vec3(|k, i| rest[k][i] / rest_len[i]);
+    let shadow_t_max = lanes(|i| rest_len[i] * (1.0 - 1.0e-5));
     let origin = offset_origins(&v.point, &v.normal, &dir);
-    Shaded { direct, shadow, shadow_origin, shadow_dir: wi, shadow_t_max, origin, dir, pdf, beta, alive }
+    Shaded { direct, shadow, shadow_origin, shadow_dir, shadow_t_max, origin, dir, pdf, beta, alive }
 }
 
 /// The pixels `x0..x1` x `y0..y1` in row order, as `super::render_pixel` gives them, bit for
