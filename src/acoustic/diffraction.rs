@@ -30,18 +30,20 @@ use glam::{DVec3, Vec3};
 use super::directivity::Directivity;
 use super::image_source::Arrival;
 use super::tracer::SurfaceAcoustics;
-use crate::core::Accel;
 use crate::core::complex::Complex;
 use crate::core::utd::WedgeTerms;
 use crate::core::wedges::{Wedge, clear_of_edge, extract_wedges, free_wedges};
+use crate::core::{Accel, TriangleMesh};
 use crate::scene::World;
 use crate::scene::materials::{BAND_COUNT, BandValues, OCTAVE_BANDS_HZ};
 
 /// The free edges of the room in `world` that sound can diffract at: the core's free wedges
 /// ([`crate::core::wedges::free_wedges`]) whose exterior, just off the middle of the edge, is
 /// the room's air. A closed room's own corners are concave seen from its air and have none.
-pub fn room_edges(world: &World) -> Vec<Wedge> {
-    free_wedges(&world.accel, &extract_wedges(&world.scene.mesh))
+/// `accel` and `mesh` are the world's own, or its [`crate::scene::FlatGeometry`] when it has
+/// instances (the wedges then index the flattened mesh's triangles).
+pub fn room_edges(world: &World, accel: &Accel, mesh: &TriangleMesh) -> Vec<Wedge> {
+    free_wedges(accel, &extract_wedges(mesh))
         .into_iter()
         .filter(|w| {
             let mid = w.at(0.5 * w.length);

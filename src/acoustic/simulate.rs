@@ -500,8 +500,14 @@ pub fn simulate_on(
 
     let (lo, hi) = scene.mesh.bounds().ok_or("the scene is empty")?;
     let margin = Vec3::splat(1e-3 * (1.0 + (hi - lo).max_element()));
+    // The deterministic engines (image sources, edges) index planes and wedges by triangle:
+    // with instances they work on the scene flattened into one mesh, with its own
+    // accelerator; without, on the world itself (the same code path as ever).
+    let flat = world.flat_geometry();
+    let (paths_accel, paths_mesh) =
+        flat.as_ref().map_or((&world.accel, &scene.mesh), |f| (&f.accel, &f.mesh));
     let planes = if settings.use_image_sources && settings.ism_order > 0 {
-        Planes::of(&scene.mesh)
+        Planes::of(paths_mesh)
     } else {
         Planes::default()
     };
@@ -509,10 +515,14 @@ pub fn simulate_on(
         if settings.use_image_sources { affordable_order(planes.len(), settings.ism_order) } else { 0 };
     // The free edges that diffract (none in a closed box: its edges are concave seen from
     // the air), and the finite panels they bound, which scatter by diffraction.
-    let edges = if settings.diffraction || settings.ray_diffraction { room_edges(world) } else { Vec::new() };
+    let edges = if settings.diffraction || settings.ray_diffraction {
+        room_edges(world, paths_accel, paths_mesh)
+    } else {
+        Vec::new()
+    };
     let wedges = if settings.diffraction { edges.clone() } else { Vec::new() };
     let mean_free_path_m = 4.0 * volume_m3 / areas.iter().sum::<f64>();
-    let edge_scattering = EdgeScattering::of(&scene.mesh, &wedges, c, mean_free_path_m);
+    let edge_scattering = EdgeScattering::of(paths_mesh, &wedges, c, mean_free_path_m);
     let edge_paths = settings.diffraction && settings.use_image_sources;
     let ray_diffraction =
         if settings.ray_diffraction { RayDiffraction::new(&edges, c, u32::from(edge_paths)) } else { None };
@@ -575,7 +585,7 @@ pub fn simulate_on(
                 .map(|r| {
                     let rcv = Vec3::from(r.position);
                     let mut arrivals = specular_arrivals_from(
-                        &world.accel,
+                        paths_accel,
                         &planes,
                         &surfaces,
                         edge_scattering.as_ref(),
@@ -595,7 +605,7 @@ pub fn simulate_on(
                     if !wedges.is_empty() && settings.use_image_sources {
                         let direct = arrivals.iter_mut().find(|a| a.order == 0);
                         let diffracted = edge_arrivals(
-                            &world.accel,
+                            paths_accel,
                             &wedges,
                             &surfaces,
                             &air_per_m,

@@ -342,11 +342,21 @@ impl PhysicsSettings {
     }
 }
 
-/// The diffracting wedges of `world`: every wedge and rim of its mesh with a free exterior
-/// ([`crate::core::wedges`]).
+/// The diffracting wedges of `world`: every wedge and rim of its mesh, instances included
+/// (flattened, [`World::flat_geometry`]), with a free exterior ([`crate::core::wedges`]).
 pub fn scene_wedges(world: &World) -> Vec<crate::core::wedges::Wedge> {
-    let all = crate::core::wedges::extract_wedges(&world.scene.mesh);
-    crate::core::wedges::free_wedges(&world.accel, &all)
+    match world.flat_geometry() {
+        Some(flat) => wedges_in(&flat.accel, &flat.mesh),
+        None => wedges_in(&world.accel, &world.scene.mesh),
+    }
+}
+
+/// The wedges and rims of `mesh` with a free exterior in the scene traced by `accel`.
+fn wedges_in(
+    accel: &crate::core::Accel,
+    mesh: &crate::core::TriangleMesh,
+) -> Vec<crate::core::wedges::Wedge> {
+    crate::core::wedges::free_wedges(accel, &crate::core::wedges::extract_wedges(mesh))
 }
 
 /// `on (0.1 m slabs, default)` and the like: the walls' thickness and where it comes from.
@@ -440,9 +450,20 @@ pub fn simulate_on(
     let mut coverage = Coverage::empty(config.grid);
     let mut rx_power_mw = vec![0.0; config.grid.cells()];
     let mut transmitters = Vec::new();
-    let planes = if config.receivers.is_empty() { Planes::default() } else { Planes::of(&world.scene.mesh) };
+    // The specular paths and the wedges index triangles: with instances they work on the
+    // scene flattened into one mesh with its own accelerator ([`World::flat_geometry`]);
+    // without, on the world itself. The rays keep the world's two-level accelerator.
+    let flat = if cluster.is_root() && (config.diffraction || !config.receivers.is_empty()) {
+        world.flat_geometry()
+    } else {
+        None
+    };
+    let (paths_accel, paths_mesh) =
+        flat.as_ref().map_or((&world.accel, &world.scene.mesh), |f| (&f.accel, &f.mesh));
+    let planes = if config.receivers.is_empty() { Planes::default() } else { Planes::of(paths_mesh) };
     // Diffraction is computed by the root alone, after the rays' sums are reduced.
-    let wedges = if config.diffraction && cluster.is_root() { scene_wedges(world) } else { Vec::new() };
+    let wedges =
+        if config.diffraction && cluster.is_root() { wedges_in(paths_accel, paths_mesh) } else { Vec::new() };
     for (ti, tx) in config.transmitters.iter().enumerate() {
         let eta =
             surface_permittivities(world, tx.freq_ghz, config.extrapolate).map_err(anyhow::Error::msg)?;
@@ -507,7 +528,7 @@ pub fn simulate_on(
             .iter()
             .map(|r| {
                 let mut sum = coherent_paths(
-                    &world.accel,
+                    paths_accel,
                     &planes,
                     &physics,
                     &tx.antenna,

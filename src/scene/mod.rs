@@ -21,4 +21,4 @@ pub use instances::{InstanceDesc, SceneInstances};
 pub use load::{LoadOptions, Scene, Surface, UpAxis, load};
 pub use materials::{Material, MaterialLibrary};
 pub use placement::{parse_point, parse_xy, place_inside};
-pub use world::World;
+pub use world::{FlatGeometry, World};

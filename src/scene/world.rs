@@ -5,7 +5,8 @@ use glam::Vec3;
 use super::check::{MeshReport, add_instances, analyze};
 use super::error::SceneError;
 use super::load::Scene;
-use crate::core::accel::instances::transformed_box;
+use crate::core::TriangleMesh;
+use crate::core::accel::instances::{flatten, transformed_box};
 use crate::core::shapes::ShapeSet;
 use crate::core::{Accel, BuildQuality, InstanceSet, PrimitiveKind, accel::point_enclosed};
 
@@ -45,6 +46,18 @@ fn triangle_distance(p: Vec3, [a, b, c]: [Vec3; 3]) -> f32 {
     }
     let denom = 1.0 / (va + vb + vc);
     (p - (a + ab * (vb * denom) + ac * (vc * denom))).length()
+}
+
+/// The world's triangles in one mesh: the scene's own triangles first (same indices), then
+/// every instance's copies in world space with their per-instance surfaces
+/// ([`crate::core::accel::instances::flatten`]), and an accelerator over them (spheres and
+/// shapes kept). For the deterministic path engines (image sources, edge diffraction) whose
+/// planes and wedges are indexed by triangle; the rays keep the two-level world accelerator.
+pub struct FlatGeometry {
+    /// The scene's mesh followed by the instances' world-space copies.
+    pub mesh: TriangleMesh,
+    /// A one-level accelerator over `mesh`, the spheres and the shapes.
+    pub accel: Accel,
 }
 
 /// A scene ready for tracing.
@@ -96,6 +109,25 @@ impl World {
         let instance_reports: Vec<MeshReport> = i.meshes.iter().map(analyze).collect();
         let report = add_instances(analyze(&scene.mesh), &i.meshes, &instance_reports, &i.list);
         Self { scene, accel, report, instance_reports }
+    }
+
+    /// The scene with its instances flattened into one mesh ([`FlatGeometry`]); `None` for a
+    /// scene without instances, whose mesh and accelerator are already flat (so such scenes
+    /// keep exactly their code path).
+    pub fn flat_geometry(&self) -> Option<FlatGeometry> {
+        let inst = &self.scene.instances;
+        if inst.list.is_empty() {
+            return None;
+        }
+        let copies = flatten(&inst.meshes, &inst.list);
+        let mut mesh = self.scene.mesh.clone();
+        let base = mesh.positions.len() as u32;
+        mesh.positions.extend(&copies.positions);
+        mesh.triangles.extend(copies.triangles.iter().map(|t| t.map(|i| base + i)));
+        mesh.surface_of_triangle.extend(&copies.surface_of_triangle);
+        let accel = Accel::build(&mesh, self.scene.spheres.clone(), BuildQuality::default())
+            .with_shapes(ShapeSet::new(self.scene.shapes.clone()));
+        Some(FlatGeometry { mesh, accel })
     }
 
     /// Whether `p` lies in the room's air, by crossing parity against the closed, non-planar
