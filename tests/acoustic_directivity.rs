@@ -290,32 +290,23 @@ fn bad_balloons_are_one_line_errors_naming_the_file() {
     assert!(e.contains("hrir_delays.sofa") && !e.contains('\n'), "{e}");
     let junk = dir.path().join("junk.sofa");
     std::fs::write(&junk, b"\x89HDF\r\n\x1a\n not really").unwrap();
-    common::assert_clean_error(
-        &[
-            "acoustic",
-            "builtin:shoebox",
-            "--rays",
-            "100",
-            "--directivity",
-            junk.to_str().unwrap(),
-            "--out",
-            "/nonexistent/x",
-        ],
-        &["junk.sofa"],
-    );
-    common::assert_clean_error(
-        &[
-            "acoustic",
-            "builtin:shoebox",
-            "--rays",
-            "100",
-            "--directivity",
-            "/nonexistent/b.sofa",
-            "--out",
-            "/nonexistent/x",
-        ],
-        &["b.sofa", "not found"],
-    );
+    let junk = junk.to_str().unwrap();
+    for (file, needles) in [(junk, &["junk.sofa"][..]), ("/nonexistent/b.sofa", &["b.sofa", "not found"][..])]
+    {
+        common::assert_clean_error(
+            &[
+                "acoustic",
+                "builtin:shoebox",
+                "--rays",
+                "100",
+                "--directivity",
+                file,
+                "--out",
+                "/nonexistent/x",
+            ],
+            needles,
+        );
+    }
 }
 
 #[test]

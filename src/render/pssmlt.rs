@@ -394,7 +394,8 @@ fn run_chain(
     let o = &settings.mlt;
     let depths = u64::from(settings.max_depth) + 1;
     let mut rng = stream(settings.seed, CHAIN_DOMAIN, k);
-    let total = *cdf.last().expect("bootstrap samples");
+    // The caller runs chains only when the bootstrap found light (a positive total).
+    let Some(&total) = cdf.last() else { return };
     // The start: a bootstrap sample chosen in proportion to its luminance.
     let u = (f64::from(rng.next_u32()) + 0.5) / 4_294_967_296.0 * total;
     let index = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1) as u64;
