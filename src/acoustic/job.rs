@@ -169,7 +169,7 @@ pub fn plan(world: &World, options: &AcousticOptions, scene_label: &str) -> anyh
         ism_order: options.ism_order,
         roulette_db: options.roulette_db.unwrap_or(AcousticSettings::default().roulette_db),
         diffraction: !options.no_diffraction,
-        ray_diffraction: !options.no_diffraction && options.ray_diffraction,
+        ray_diffraction: !options.no_diffraction && !options.no_ray_diffraction,
         split_copies: if options.no_splitting { 1 } else { AcousticSettings::default().split_copies },
         ambisonic_order: options.ambisonic_order,
         binaural: options.binaural || options.hrtf.is_some(),

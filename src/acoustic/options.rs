@@ -49,10 +49,14 @@ pub struct AcousticOptions {
     #[arg(long)]
     pub no_diffraction: bool,
     /// Bend rays that pass near free edges (stochastic diffraction for the late part;
-    /// docs/acoustics.md, Edge diffraction): off by default for now, as it doubles the run
-    /// in rooms with many edges and makes the late decay noisier at a given ray count.
-    #[arg(long)]
+    /// docs/acoustics.md, Edge diffraction). On by default since it became cheap; the flag
+    /// is kept so that scripts which ask for it still work.
+    #[arg(long, conflicts_with = "no_ray_diffraction")]
     pub ray_diffraction: bool,
+    /// Do not bend rays near free edges (the edge paths and panel scattering stay on; see
+    /// --no-diffraction for all of it).
+    #[arg(long)]
+    pub no_ray_diffraction: bool,
     /// Level below launch, dB, from which rays play Russian roulette (default 30; 20 to 120):
     /// higher is smoother late decay for more time.
     #[arg(long)]
@@ -121,6 +125,7 @@ impl Default for AcousticOptions {
             no_splitting: false,
             no_diffraction: false,
             ray_diffraction: false,
+            no_ray_diffraction: false,
             roulette_db: None,
             temperature_c: None,
             humidity_percent: None,

@@ -114,8 +114,8 @@ pub struct AcousticSettings {
     pub diffraction: bool,
     /// Rays passing near free edges are bent ([`super::ray_diffraction`]): after their first
     /// reflection while `diffraction`'s edge paths (with image sources) cover the direct
-    /// sound, from the source otherwise. Off by default for now (docs/acoustics.md, Edge
-    /// diffraction: its cost and its noise).
+    /// sound, from the source otherwise; never while a ray is still an image-source path.
+    /// On by default (docs/acoustics.md, Edge diffraction: its cost and its noise).
     pub ray_diffraction: bool,
     /// Order of the Ambisonic impulse responses to make (1 to 3; 0: none). Any order, or
     /// `binaural`, keeps the directions of arrival ([`PairResult::directions`]).
@@ -171,7 +171,7 @@ impl Default for AcousticSettings {
             diffuse_rain: true,
             split_copies: SPLIT_COPIES,
             diffraction: true,
-            ray_diffraction: false,
+            ray_diffraction: true,
             ambisonic_order: 0,
             binaural: false,
             hrtf: None,
@@ -524,8 +524,11 @@ pub fn simulate_on(
     let mean_free_path_m = 4.0 * volume_m3 / areas.iter().sum::<f64>();
     let edge_scattering = EdgeScattering::of(paths_mesh, &wedges, c, mean_free_path_m);
     let edge_paths = settings.diffraction && settings.use_image_sources;
-    let ray_diffraction =
-        if settings.ray_diffraction { RayDiffraction::new(&edges, c, u32::from(edge_paths)) } else { None };
+    let ray_diffraction = if settings.ray_diffraction {
+        RayDiffraction::new(&edges, paths_mesh, c, u32::from(edge_paths))
+    } else {
+        None
+    };
     // Which triangles each receiver sees whole: their rain needs no occlusion ray.
     let rain_in_view: Vec<Option<Vec<crate::core::visibility::PartsInView>>> = if settings.diffuse_rain {
         spheres.iter().map(|r| triangles_in_full_view(&scene.mesh, &scene.spheres, r.center)).collect()

@@ -47,6 +47,10 @@ pub struct SoundRay {
     /// Copies this ray may still be split into, all its later splits together (see
     /// [`Splitting`]); a split into k copies gives each a k-th of it.
     pub copies_left: u32,
+    /// Copies this ray's bends near edges may still make, all of them together
+    /// ([`super::ray_diffraction::RayDiffraction::copies`]); past that, a bend follows one of
+    /// its parts, chosen by energy.
+    pub bend_copies_left: u32,
 }
 
 /// Ray splitting against the room's expected decay (Booth 1985; docs/acoustics.md, Ray
@@ -254,6 +258,7 @@ impl Propagation for SoundPropagation<'_> {
             after_diffuse: false,
             bent_by: 0,
             copies_left: self.splitting.map_or(1, |s| s.copies),
+            bend_copies_left: self.ray_diffraction.map_or(0, |r| r.copies),
         }
     }
 
@@ -289,7 +294,9 @@ impl Propagation for SoundPropagation<'_> {
         k
     }
 
-    /// Stochastic diffraction near free edges ([`super::ray_diffraction`]).
+    /// Stochastic diffraction near free edges ([`super::ray_diffraction`]). A ray that is
+    /// still an image-source path is not bent: the image sources count that path's whole
+    /// energy, so its bent part would be counted twice.
     #[inline(always)]
     fn deflect(
         &self,
@@ -299,6 +306,11 @@ impl Propagation for SoundPropagation<'_> {
         reflections: u32,
         rng: &mut Rng64,
     ) -> Option<Deflection<SoundRay>> {
+        if let (Some(order), Some(limit)) = (sound.specular_order, self.skip_specular_up_to)
+            && order <= limit
+        {
+            return None;
+        }
         let b = self.ray_diffraction?.deflect(sound, ray, length_m, reflections, rng)?;
         Some(Deflection { at_m: b.at_m, dir: b.dir, payload: b.bent, straight: b.straight })
     }

@@ -1,6 +1,6 @@
-//! Line segments (edges) that a ray passes near: an obvhs tree over the segments' boxes grown
-//! by a reach, so that a flight meets only the few segments within reach instead of all of
-//! them. The acoustic simulator asks it where rays pass free edges (its stochastic
+//! Line segments (edges) that a ray passes near: an obvhs tree over the segments' boxes, each
+//! grown by its own reach, so that a flight meets only the few segments within reach instead
+//! of all of them. The acoustic simulator asks it where rays pass free edges (its stochastic
 //! diffraction); the core knows only segments and distances.
 
 use std::time::Duration;
@@ -13,7 +13,8 @@ use obvhs::{Boundable, BvhBuildParams};
 
 use super::ray::Ray;
 
-/// A straight segment from `start` along the unit `dir` for `length_m`.
+/// A straight segment from `start` along the unit `dir` for `length_m`, passed by rays
+/// within `reach_m` of it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Segment {
     /// One end.
@@ -22,6 +23,8 @@ pub struct Segment {
     pub dir: Vec3,
     /// Length, metres.
     pub length_m: f32,
+    /// Rays passing farther than this from the segment do not pass it, metres.
+    pub reach_m: f32,
 }
 
 /// Where a ray passes closest to a segment's line.
@@ -37,7 +40,7 @@ pub struct Pass {
     pub sin_beta: f32,
 }
 
-/// A segment's box grown by the reach (the obvhs builder's input).
+/// A segment's box grown by its reach (the obvhs builder's input).
 struct Grown(Aabb);
 
 impl Boundable for Grown {
@@ -46,28 +49,28 @@ impl Boundable for Grown {
     }
 }
 
-/// Segments and a tree over their boxes grown by `reach_m`.
+/// Segments and a tree over their boxes grown by their reaches.
 pub struct NearSegments {
     segments: Vec<Segment>,
-    reach_m: f32,
     tree: Option<CwBvh>,
 }
 
 impl NearSegments {
-    /// A tree over `segments` for passes within `reach_m`.
-    pub fn new(segments: Vec<Segment>, reach_m: f32) -> Self {
+    /// A tree over `segments` for passes within each one's reach.
+    pub fn new(segments: Vec<Segment>) -> Self {
         let grown: Vec<Grown> = segments
             .iter()
             .map(|s| {
                 let end = s.start + s.length_m * s.dir;
-                let pad =
-                    Vec3::splat(reach_m * 1.001 + 1e-6 * (1.0 + s.start.abs().max(end.abs()).max_element()));
+                let pad = Vec3::splat(
+                    s.reach_m * 1.001 + 1e-6 * (1.0 + s.start.abs().max(end.abs()).max_element()),
+                );
                 Grown(Aabb::new(Vec3A::from(s.start.min(end) - pad), Vec3A::from(s.start.max(end) + pad)))
             })
             .collect();
         let tree = (!grown.is_empty())
             .then(|| build_cwbvh(&grown, BvhBuildParams::medium_build(), &mut Duration::default()));
-        Self { segments, reach_m, tree }
+        Self { segments, tree }
     }
 
     /// The segments.
@@ -75,12 +78,7 @@ impl NearSegments {
         &self.segments
     }
 
-    /// The reach, metres.
-    pub fn reach_m(&self) -> f32 {
-        self.reach_m
-    }
-
-    /// Of the segments that `ray` over `(0, length_m]` passes within the reach (the closest
+    /// Of the segments that `ray` over `(0, length_m]` passes within their reach (the closest
     /// point inside both the flight and the segment), the one closest in the measure
     /// `distance * sin(beta)` (the distance seen across the segment). Rays within 0.6
     /// degrees of a segment's direction pass none of it.
@@ -91,7 +89,7 @@ impl NearSegments {
         tree.ray_traverse_anyhit(query, |_, id| {
             let i = tree.primitive_indices[id] as usize;
             if let Some(p) = pass(&self.segments[i], i, ray, length_m)
-                && p.distance_m < self.reach_m
+                && p.distance_m < self.segments[i].reach_m
                 && best.is_none_or(|b| p.distance_m * p.sin_beta < b.distance_m * b.sin_beta)
             {
                 best = Some(p);
@@ -135,9 +133,10 @@ mod tests {
                 start: Vec3::new(u(), u(), u()) * 10.0,
                 dir: crate::core::sampling::uniform_sphere(glam::Vec2::new(u(), u())),
                 length_m: 3.0 * u(),
+                reach_m: 0.2 + 0.4 * u(),
             })
             .collect();
-        let near = NearSegments::new(segments.clone(), 0.4);
+        let near = NearSegments::new(segments.clone());
         let mut found = 0;
         for _ in 0..2000 {
             let ray = Ray::new(
@@ -148,7 +147,7 @@ mod tests {
                 .iter()
                 .enumerate()
                 .filter_map(|(i, s)| pass(s, i, &ray, 5.0))
-                .filter(|p| p.distance_m < 0.4)
+                .filter(|p| p.distance_m < segments[p.segment].reach_m)
                 .min_by(|a, b| (a.distance_m * a.sin_beta).total_cmp(&(b.distance_m * b.sin_beta)));
             let tree = near.closest_pass(&ray, 5.0);
             assert_eq!(scan.map(|p| p.segment), tree.map(|p| p.segment));
@@ -159,8 +158,8 @@ mod tests {
 
     #[test]
     fn a_pass_is_where_the_ray_comes_closest() {
-        let s = Segment { start: Vec3::new(0.0, 0.0, -10.0), dir: Vec3::Z, length_m: 20.0 };
-        let near = NearSegments::new(vec![s], 1.0);
+        let s = Segment { start: Vec3::new(0.0, 0.0, -10.0), dir: Vec3::Z, length_m: 20.0, reach_m: 1.0 };
+        let near = NearSegments::new(vec![s]);
         let ray = Ray::new(Vec3::new(-5.0, 0.3, 2.0), Vec3::X);
         let p = near.closest_pass(&ray, 10.0).unwrap();
         assert!((p.at_m - 5.0).abs() < 1e-5 && (p.distance_m - 0.3).abs() < 1e-5);
