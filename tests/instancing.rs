@@ -287,15 +287,6 @@ fn bad_instances_are_one_line_errors_naming_the_file_and_the_instance() {
         all.extend_from_slice(needles);
         assert_clean_error(&["info", &scene], &all);
     }
-    // An emissive instance is refused (instanced area lights are not supported).
-    write(dir.path(), "lamp.obj", "mtllib lamp.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl glow\nf 1 2 3\n");
-    write(dir.path(), "lamp.mtl", "newmtl glow\nKd 0.5 0.5 0.5\nKe 5 5 5\n");
-    let scene = write(
-        dir.path(),
-        "scene.toml",
-        "obj = \"room.obj\"\n[[instances]]\nname = \"L\"\nmesh = \"lamp.obj\"\n",
-    );
-    assert_clean_error(&["info", &scene], &[&scene, "instance \"L\"", "emits light"]);
 }
 
 #[test]
@@ -347,6 +338,14 @@ fn shapes_in_a_scene_file_are_hit_at_their_closed_forms() {
         "obj = \"room.obj\"\n[[shapes]]\nkind = \"torus\"\nmaterial = \"wood\"\n",
     );
     assert_clean_error(&["info", &bad], &[&bad, "shape #1", "unknown kind \"torus\""]);
+    // An emissive quadric has no closed-form area to sample: refused, not silently dark.
+    let glowing = write(
+        dir.path(),
+        "glow.toml",
+        "obj = \"room.obj\"\n[materials.glow]\nemission = [1, 1, 1]\n[[shapes]]\nkind = \"quadric\"\nmaterial = \"glow\"\n\
+         coefficients = [1, 1, -1, 0, 0, 0, 0, 0, 0, -1]\nclip_min = [-1, -1, -1]\nclip_max = [1, 1, 1]\n",
+    );
+    assert_clean_error(&["info", &glowing], &[&glowing, "shape #1", "quadric", "cannot be a light"]);
 }
 
 /// A unit quad in its own frame (normal +z), material `MAT`: placed by a transform it
