@@ -420,7 +420,8 @@ impl Lights {
     /// `emitters` whose surface emits, per `emission[surface_id]` (lights in that order). A
     /// quadric shape never emits (it has no closed-form area; the loader refuses one).
     pub fn from_emitters(points: &[(Vec3, Vec3)], emitters: &Emitters, emission: &[Vec3]) -> Self {
-        let emits = |surface: SurfaceId| emission.get(surface as usize).copied().filter(|e| e.max_element() > 0.0);
+        let emits =
+            |surface: SurfaceId| emission.get(surface as usize).copied().filter(|e| e.max_element() > 0.0);
         let mut lights: Vec<Light> =
             points.iter().map(|&(position, intensity)| Light::Point { position, intensity }).collect();
         let mesh_triangles = emitters.mesh.map_or(0, TriangleMesh::triangle_count);
@@ -489,7 +490,17 @@ impl Lights {
             .collect();
         let cdf_below = std::iter::once(0.0).chain(cdf.iter().copied()).take(lights.len()).collect();
         let inv_pmf = pmf.iter().map(|p| if *p > 0.0 { 1.0 / p } else { 0.0 }).collect();
-        Self { lights, pmf, cdf, cdf_below, inv_pmf, triangle_light, sphere_light, shape_light, instance_light }
+        Self {
+            lights,
+            pmf,
+            cdf,
+            cdf_below,
+            inv_pmf,
+            triangle_light,
+            sphere_light,
+            shape_light,
+            instance_light,
+        }
     }
 
     /// Whether there is no light.
@@ -553,7 +564,10 @@ impl Lights {
     #[inline]
     pub fn of_instance_triangle(&self, instance: u32, triangle: u32) -> Option<usize> {
         let key = u64::from(instance) << 32 | u64::from(triangle);
-        self.instance_light.binary_search_by_key(&key, |e| e.0).ok().map(|i| self.instance_light[i].1 as usize)
+        self.instance_light
+            .binary_search_by_key(&key, |e| e.0)
+            .ok()
+            .map(|i| self.instance_light[i].1 as usize)
     }
 }
 

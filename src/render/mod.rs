@@ -437,10 +437,9 @@ impl<'a> RenderScene<'a> {
             PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
             PrimitiveKind::Shape => self.lights.of_shape(hit.primitive),
             // Set by `hit_of`: the light itself, or u32::MAX.
-            PrimitiveKind::Instance => {
-                (hit.primitive != u32::MAX && (hit.primitive as usize) < self.lights.lights.len())
-                    .then_some(hit.primitive as usize)
-            }
+            PrimitiveKind::Instance => (hit.primitive != u32::MAX
+                && (hit.primitive as usize) < self.lights.lights.len())
+            .then_some(hit.primitive as usize),
         }
     }
 

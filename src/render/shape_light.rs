@@ -99,8 +99,8 @@ impl EmitterKind {
             }
             EmitterKind::Box => {
                 // Six faces of area 1: face k = floor(6 u.x), axis k / 2, side by k's parity.
-                let f = (u.x * 6.0).min(5.0);
-                let k = f as usize;
+                let f = u.x * 6.0;
+                let k = (f as usize).min(5);
                 let v = (f - k as f32).clamp(0.0, 1.0);
                 let (axis, side) = (k / 2, if k % 2 == 0 { -0.5 } else { 0.5 });
                 let mut p = Vec3::ZERO;
@@ -262,10 +262,41 @@ mod tests {
         }
     }
 
+    /// The canonical samples are uniform by area: their first and second moments are those
+    /// of the uniform density on each surface (closed forms: a sphere's `E[x^2] = 1/3`; a
+    /// cube's `(2 * 1/4 + 4 * 1/12) / 6 = 5/36`; a cylinder's lateral half with `E[x^2] =
+    /// 1/2` and its caps with `1/4`; a cone's lateral part, whose distance from the apex has
+    /// density `2 s`, `E[s] = 2/3`, `E[s^2] = 1/2`).
+    #[test]
+    fn canonical_samples_have_the_moments_of_the_uniform_density() {
+        let wl = std::f32::consts::SQRT_2 / (1.0 + std::f32::consts::SQRT_2);
+        let cases = [
+            (EmitterKind::Sphere, Vec3::ZERO, Vec3::splat(1.0 / 3.0)),
+            (EmitterKind::Disk, Vec3::ZERO, Vec3::new(0.25, 0.25, 0.0)),
+            (EmitterKind::Box, Vec3::ZERO, Vec3::splat(5.0 / 36.0)),
+            (EmitterKind::Cylinder, Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.375, 0.375, 5.0 / 12.0)),
+            (EmitterKind::Cone, Vec3::new(0.0, 0.0, wl / 3.0), Vec3::new(0.25, 0.25, wl / 6.0)),
+        ];
+        for (kind, mean, square) in cases {
+            let n = 200_000u64;
+            let (mut m, mut q) = (Vec3::ZERO, Vec3::ZERO);
+            for k in 0..n {
+                let mut r = stream(9, 0, k);
+                let (p, normal) = kind.sample(Vec2::new(uniform(&mut r), uniform(&mut r)));
+                assert!((normal.length() - 1.0).abs() < 1e-5, "{kind:?}");
+                m += p / n as f32;
+                q += p * p / n as f32;
+            }
+            assert!((m - mean).abs().max_element() < 4e-3, "{kind:?}: mean {m} vs {mean}");
+            assert!((q - square).abs().max_element() < 4e-3, "{kind:?}: mean square {q} vs {square}");
+        }
+    }
+
     /// Under a similarity the density is uniform: `1 / A` everywhere.
     #[test]
     fn a_similarity_samples_uniformly_by_area() {
-        let m = Affine3A::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_rotation_y(0.4), Vec3::X);
+        let m =
+            Affine3A::from_scale_rotation_translation(Vec3::splat(2.0), Quat::from_rotation_y(0.4), Vec3::X);
         for kind in kinds() {
             let shape = Shape::new(kind, m).unwrap();
             let light = ShapeLight::new(&shape, Vec3::ONE).unwrap();
@@ -276,7 +307,8 @@ mod tests {
                 assert!((light.pdf_area(nw) - want).abs() < 1e-5 * want, "{kind:?}");
             }
         }
-        let quadric = ShapeKind::Quadric { a: [1.0; 6], b: Vec3::ZERO, c: -1.0, lo: -Vec3::ONE, hi: Vec3::ONE };
+        let quadric =
+            ShapeKind::Quadric { a: [1.0; 6], b: Vec3::ZERO, c: -1.0, lo: -Vec3::ONE, hi: Vec3::ONE };
         assert!(ShapeLight::new(&Shape::new(quadric, Affine3A::IDENTITY).unwrap(), Vec3::ONE).is_none());
     }
 }
