@@ -487,15 +487,7 @@ mod tests {
         let mut optics = scene.surfaces.clone();
         optics.iter_mut().for_each(|o| o.emission = Vec3::ZERO);
         let mesh = &world.scene.mesh;
-        let unlit = RenderScene::from_parts(
-            &world.accel,
-            mesh,
-            &[],
-            (&[], &[]),
-            optics,
-            &[],
-            Vec3::new(0.5, 0.6, 0.7),
-        );
+        let unlit = RenderScene::from_parts(&world.accel, mesh, &[], optics, &[], Vec3::new(0.5, 0.6, 0.7));
         assert!(unlit.lights.is_empty() && applies(&unlit, &RenderSettings::default()));
         let s = RenderSettings { width: 40, height: 36, spp: 4, ..RenderSettings::default() };
         let mut rays = [0u64; 2];

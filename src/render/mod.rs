@@ -324,13 +324,27 @@ impl<'a> RenderScene<'a> {
         let background =
             s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
         let instances = (s.instances.meshes.as_slice(), s.instances.list.as_slice());
-        Self::from_parts(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background)
+        Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background)
     }
 
-    /// A render scene from its parts; `instances` are the meshes and placed copies `accel`'s
-    /// instance set was built from, `points` are (position, intensity) point lights. The
-    /// shapes are `accel`'s.
+    /// A render scene from its parts; `points` are (position, intensity) point lights, the
+    /// shapes are `accel`'s. Emissive triangles of `accel`'s instances (if any) are not lights
+    /// here, for want of their meshes: they glow where a path hits them (see
+    /// [`RenderScene::with_instances`]).
     pub fn from_parts(
+        accel: &'a Accel,
+        mesh: &'a TriangleMesh,
+        spheres: &[Sphere],
+        surfaces: Vec<SurfaceOptics>,
+        points: &[(Vec3, Vec3)],
+        background: Vec3,
+    ) -> Self {
+        Self::with_instances(accel, mesh, spheres, (&[], &[]), surfaces, points, background)
+    }
+
+    /// [`RenderScene::from_parts`] with the meshes and placed copies `accel`'s instance set
+    /// was built from, whose emissive triangles become lights.
+    pub fn with_instances(
         accel: &'a Accel,
         mesh: &'a TriangleMesh,
         spheres: &[Sphere],

@@ -102,7 +102,7 @@ impl EmitterKind {
                 let f = u.x * 6.0;
                 let k = (f as usize).min(5);
                 let v = (f - k as f32).clamp(0.0, 1.0);
-                let (axis, side) = (k / 2, if k % 2 == 0 { -0.5 } else { 0.5 });
+                let (axis, side) = (k / 2, if k.is_multiple_of(2) { -0.5 } else { 0.5 });
                 let mut p = Vec3::ZERO;
                 p[axis] = side;
                 p[(axis + 1) % 3] = v - 0.5;
