@@ -458,20 +458,25 @@ impl Lights {
             if mesh.bounds().is_none() || !Instance::transform_is_valid(&inst.object_to_world) {
                 continue;
             }
+            placed += 1;
+            // Most copies emit nothing: one look at their few surfaces, not their triangles.
+            let surface_of = |s: SurfaceId| inst.surfaces.get(s as usize).copied().unwrap_or(s);
+            let ids = mesh.surface_names.len().max(inst.surfaces.len()) as SurfaceId;
+            if !(0..ids).any(|s| emits(surface_of(s)).is_some()) {
+                continue;
+            }
             let mirrored = inst.object_to_world.matrix3.determinant() < 0.0;
             for (t, &s) in mesh.surface_of_triangle.iter().enumerate() {
-                let surface = inst.surfaces.get(s as usize).copied().unwrap_or(s);
-                let Some(le) = emits(surface) else { continue };
+                let Some(le) = emits(surface_of(s)) else { continue };
                 let [a, b, c] = mesh.corners(t).map(|p| inst.object_to_world.transform_point3(p));
                 // A mirrored copy is rewound so that its right-hand normal is the transformed
                 // normal the instance's hits report (as `flatten` does).
                 let corners = if mirrored { [a, c, b] } else { [a, b, c] };
                 if let Some(light) = triangle(corners, le) {
-                    instance_light.push((placed << 32 | t as u64, lights.len() as u32));
+                    instance_light.push(((placed - 1) << 32 | t as u64, lights.len() as u32));
                     lights.push(light);
                 }
             }
-            placed += 1;
         }
         let weights: Vec<f32> = lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
         let total: f32 = weights.iter().sum();
