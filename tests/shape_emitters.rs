@@ -14,7 +14,7 @@ use glam::Vec3;
 use propsim::core::Ray;
 use propsim::core::rng::stream;
 use propsim::render::sampler::Sampler;
-use propsim::render::{Camera, IntegratorKind, RenderScene, radiance};
+use propsim::render::{Camera, IntegratorKind, Light, RenderScene, radiance};
 use propsim::scene::{LoadOptions, World, load};
 
 /// Albedo of the floor (grey, so one channel stands for all).
@@ -117,7 +117,7 @@ fn an_emissive_disk_gives_the_closed_form_irradiance() {
 /// (four corner form factors of a point below a rectangle, Howell's catalogue C-11); an
 /// ellipsoid of revolution (semi-axes a, a, c, centre at height d, axis vertical) is bounded
 /// by the tangent cone of half-angle asin(a / sqrt(a^2 + d^2 - c^2)), so E = pi L a^2 /
-/// (a^2 + d^2 - c^2). The ellipsoids are sampled with a density that varies over them: this
+/// (a^2 + d^2 - c^2), and a round sphere (radius r, centre at height d) pi L r^2 / d^2. The ellipsoids are sampled with a density that varies over them: this
 /// checks the density and its MIS weight, not only the area.
 #[test]
 fn emissive_closed_shapes_give_the_closed_form_irradiance() {
@@ -129,7 +129,12 @@ fn emissive_closed_shapes_give_the_closed_form_irradiance() {
                 + y / (1.0 + y * y).sqrt() * (x / (1.0 + y * y).sqrt()).atan());
         PI * LE * 4.0 * corner
     };
-    let cases: [(&str, String, f64); 5] = [
+    let cases: [(&str, String, f64); 6] = [
+        (
+            "round sphere r 0.4 at z = 1, turned",
+            "kind = \"sphere\"\nscale = 0.4\nrotate_euler_deg = [10, 20, 30]\ntranslate = [0, 0, 1]".into(),
+            PI * LE * 0.16,
+        ),
         (
             "cylinder R 0.4 on z = 0.8",
             "kind = \"cylinder\"\nscale = [0.4, 0.4, 0.5]\ntranslate = [0, 0, 0.8]".into(),
@@ -164,6 +169,8 @@ fn emissive_closed_shapes_give_the_closed_form_irradiance() {
         );
         let scene = RenderScene::new(&world);
         assert_eq!(scene.lights.lights.len(), 1);
+        // A round sphere is sampled by the cone it subtends, the other shapes by area.
+        assert_eq!(matches!(scene.lights.lights[0], Light::Sphere { .. }), k == 0, "{what}");
         assert_close(what, irradiance(&scene, Vec3::ZERO, 500_000), *want);
     }
 }

@@ -444,9 +444,16 @@ impl Lights {
         }
         let mut shape_light = vec![NOT_A_LIGHT; emitters.shapes.len()];
         for ((shape, surface), sl) in emitters.shapes.iter().zip(&mut shape_light) {
-            if let Some(light) = emits(*surface).and_then(|le| ShapeLight::new(shape, le)) {
+            let Some(le) = emits(*surface) else { continue };
+            // A round sphere (a similarity) takes the sphere light's sampling of the cone it
+            // subtends, which wastes no sample on its far side; other shapes sample by area.
+            let light = match round_sphere(shape) {
+                Some((center, radius)) => Some(Light::Sphere { center, radius, le }),
+                None => ShapeLight::new(shape, le).map(Light::Shape),
+            };
+            if let Some(light) = light {
                 *sl = lights.len() as u32;
-                lights.push(Light::Shape(light));
+                lights.push(light);
             }
         }
         // Instances are numbered as `InstanceSet::build` places them: it skips a copy of an
@@ -574,6 +581,22 @@ impl Lights {
             .ok()
             .map(|i| self.instance_light[i].1 as usize)
     }
+}
+
+/// Centre and radius of a sphere shape whose transform is a similarity (`M^T M = s^2 I` to
+/// 1e-5), else `None`.
+fn round_sphere(shape: &Shape) -> Option<(Vec3, f32)> {
+    if shape.kind != crate::core::shapes::ShapeKind::Sphere {
+        return None;
+    }
+    let m = glam::Mat3::from(shape.object_to_world.matrix3);
+    let g = m.transpose() * m;
+    let s2 = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
+    let off = (g - glam::Mat3::from_diagonal(Vec3::splat(s2)))
+        .to_cols_array()
+        .iter()
+        .fold(0.0f32, |a, v| a.max(v.abs()));
+    (s2 > 0.0 && off <= 1e-5 * s2).then(|| (Vec3::from(shape.object_to_world.translation), s2.sqrt()))
 }
 
 /// The light of an emissive triangle with corners `a, b, c` (normal by the right-hand rule),

@@ -19,7 +19,8 @@
 //! estimator and the MIS weights need (area sampling of shapes with its density converted to
 //! solid angle for next-event estimation, as in [pbrt-v4] ch. 6 and [Veach1997] ch. 9).
 //! General quadrics have no closed-form area and are not lights (the scene loader refuses an
-//! emissive one).
+//! emissive one). A round sphere (a similarity) does not come here: it becomes an ordinary
+//! sphere light, sampled within the cone it subtends ([`super::lights`]).
 //!
 //! Emission is one-sided Lambertian, from the side the outward (disk: +z) normal points to,
 //! as for triangles and spheres ([`super::lights`]).
