@@ -376,7 +376,8 @@ impl<'a> RenderScene<'a> {
         self.mesh
     }
 
-    /// The closest hit along `ray` (barycentrics are not computed: zero).
+    /// The closest hit along `ray` (barycentrics are not computed: zero; an instance's hit
+    /// carries the light it is in `primitive`, as `hit_of` explains).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         self.hit_of(ray, self.accel.mesh.closest_triangle(ray))

@@ -17,7 +17,7 @@
 //! a round cylinder) this is `1 / A`, uniform by world area; a stretched shape (an
 //! ellipsoid) is sampled non-uniformly but with this exact density, which is what an unbiased
 //! estimator and the MIS weights need (area sampling of shapes with its density converted to
-//! solid angle for next-event estimation, as in [pbrt-v4] ch. 6 and [Veach1997] ch. 9).
+//! solid angle for next-event estimation, as in pbrt-v4 ch. 6 and Veach 1997 ch. 9).
 //! General quadrics have no closed-form area and are not lights (the scene loader refuses an
 //! emissive one). A round sphere (a similarity) does not come here: it becomes an ordinary
 //! sphere light, sampled within the cone it subtends ([`super::lights`]).
