@@ -177,7 +177,7 @@ impl Vertex {
     /// Density per area of this emitter point as the start of a light subpath (light choice
     /// included).
     fn pdf_light_origin(&self, scene: &RenderScene) -> f32 {
-        self.light.map_or(0.0, |l| scene.lights.pmf(l) * scene.lights.lights[l].pdf_le_pos())
+        self.light.map_or(0.0, |l| scene.lights.pmf(l) * scene.lights.lights[l].pdf_le_pos(self.n))
     }
 }
 
@@ -263,12 +263,13 @@ pub(super) fn light_subpath<R: Uniforms>(
     random_walk(scene, ray, beta, e.pdf_dir, max_depth as usize + 1, Mode::Importance, rng, path, rays);
 }
 
-/// The unit normal of light `l` at its point `p` (zero for a point light).
-fn light_normal(scene: &RenderScene, l: usize, p: Vec3) -> Vec3 {
+/// The unit normal of light `l` at the point `ls` sampled on it (zero for a point light).
+fn light_normal(scene: &RenderScene, l: usize, ls: &super::lights::LightSample) -> Vec3 {
     match scene.lights.lights[l] {
         super::Light::Point { .. } => Vec3::ZERO,
         super::Light::Triangle { normal, .. } => normal,
-        super::Light::Sphere { center, .. } => (p - center).normalize_or_zero(),
+        super::Light::Sphere { center, .. } => (ls.point - center).normalize_or_zero(),
+        super::Light::Shape(_) => ls.normal,
     }
 }
 
@@ -499,7 +500,7 @@ pub(super) fn connect(
         let (index, pmf, ux) = scene.lights.choose_reusing(u.x)?;
         let light_model = &scene.lights.lights[index];
         let ls = light_model.sample(pt.p, Vec2::new(ux, u.y))?;
-        let n = light_normal(scene, index, ls.point);
+        let n = light_normal(scene, index, &ls);
         let mut v = Vertex::endpoint(VertexKind::Light, ls.point, n, ls.li / (pmf * ls.pdf), Some(index));
         v.pdf_fwd = v.pdf_light_origin(scene);
         let mut l = pt.beta * pt.f(&v) * v.beta;
@@ -714,7 +715,7 @@ mod tests {
                         let Some(ls) = scene.lights.lights[index].sample(pt.p, Vec2::new(ux, u.y)) else {
                             continue;
                         };
-                        let nrm = light_normal(&scene, index, ls.point);
+                        let nrm = light_normal(&scene, index, &ls);
                         let mut v =
                             Vertex::endpoint(VertexKind::Light, ls.point, nrm, Vec3::ONE, Some(index));
                         v.pdf_fwd = v.pdf_light_origin(&scene);

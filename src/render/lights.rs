@@ -1,16 +1,19 @@
-//! Light sources: point lights, emissive triangles (area lights) and emissive spheres, with
-//! sampling by solid angle for next-event estimation and the matching densities for multiple
-//! importance sampling (pbrt-v4 ch. 12; Veach 1997 ch. 9).
+//! Light sources: point lights, emissive triangles (area lights, the scene mesh's and those
+//! of instanced meshes placed in the world), emissive spheres and emissive analytic shapes
+//! ([`super::shape_light`]), with sampling by solid angle for next-event estimation and the
+//! matching densities for multiple importance sampling (pbrt-v4 ch. 12; Veach 1997 ch. 9).
 //!
-//! Emitters are one-sided Lambertian: a triangle or sphere emits radiance `Le` from the side
-//! its normal points to (pbrt-v4's default area light).
+//! Emitters are one-sided Lambertian: a triangle, sphere or shape emits radiance `Le` from the
+//! side its normal points to (pbrt-v4's default area light).
 
 use std::f32::consts::PI;
 
 use glam::{Vec2, Vec3};
 
+use super::shape_light::ShapeLight;
 use crate::core::sampling::{to_world, uniform_sphere, uniform_triangle};
-use crate::core::{Sphere, TriangleMesh};
+use crate::core::shapes::Shape;
+use crate::core::{Instance, Sphere, SurfaceId, TriangleMesh};
 
 /// Marks a primitive that is not a light in the primitive-to-light maps.
 const NOT_A_LIGHT: u32 = u32::MAX;
@@ -52,6 +55,8 @@ pub enum Light {
         /// Emitted radiance.
         le: Vec3,
     },
+    /// Emissive analytic shape (emitting outwards; a disk towards its normal).
+    Shape(ShapeLight),
 }
 
 /// A point sampled on a light as seen from a shading point.
@@ -79,6 +84,8 @@ pub struct LightSample {
     /// The light's geometric normal at `shadow_point` when it lies on a flat emitter: the
     /// shadow segment is then pushed off both surfaces ([`crate::core::ray::Ray::between`]).
     pub shadow_normal: Option<Vec3>,
+    /// The light's unit normal at `point` (zero for a point light).
+    pub normal: Vec3,
 }
 
 impl Light {
@@ -88,6 +95,7 @@ impl Light {
             Light::Point { intensity, .. } => 4.0 * PI * intensity,
             Light::Triangle { area, le, .. } => PI * area * le,
             Light::Sphere { radius, le, .. } => PI * 4.0 * PI * radius * radius * le,
+            Light::Shape(s) => PI * s.area_m2 * s.le,
         }
     }
 
@@ -97,6 +105,7 @@ impl Light {
             Light::Point { position, .. } => position,
             Light::Triangle { p0, e1, e2, .. } => p0 + (e1 + e2) / 3.0,
             Light::Sphere { center, .. } => center,
+            Light::Shape(s) => s.centre(),
         }
     }
 
@@ -109,6 +118,7 @@ impl Light {
                 (p0 + (e1 + e2) / 3.0, le * (area * normal.dot(dir).max(0.0)))
             }
             Light::Sphere { center, radius, le } => (center + radius * dir, le * (PI * radius * radius)),
+            Light::Shape(s) => (s.centre(), s.intensity_towards(dir)),
         }
     }
 
@@ -131,6 +141,7 @@ impl Light {
                     delta: true,
                     shadow_point: position,
                     shadow_normal: None,
+                    normal: Vec3::ZERO,
                 })
             }
             Light::Triangle { p0, e1, e2, normal, area, le } => {
@@ -154,6 +165,7 @@ impl Light {
                     delta: false,
                     shadow_point: q,
                     shadow_normal: Some(normal),
+                    normal,
                 })
             }
             Light::Sphere { center, radius, le } => {
@@ -180,15 +192,43 @@ impl Light {
                 let b = dc * cos_t;
                 let disc = (r2 - dc2 * sin_t * sin_t).max(0.0);
                 let distance = b - disc.sqrt();
+                let point = p + wi * distance;
                 Some(LightSample {
                     wi,
                     distance,
-                    point: p + wi * distance,
+                    point,
                     li: le,
                     pdf: 1.0 / (2.0 * PI * one_minus_cos_max),
                     delta: false,
                     shadow_point: p + wi * (distance * (1.0 - 1.0e-3)),
                     shadow_normal: None,
+                    normal: (point - center).normalize_or_zero(),
+                })
+            }
+            Light::Shape(s) => {
+                // By area (see `shape_light`), the density turned per solid angle at `p`.
+                let (q, n) = s.sample_area(u);
+                let to = q - p;
+                let d2 = to.length_squared();
+                let distance = d2.sqrt();
+                let wi = to / distance;
+                let cos_l = -n.dot(wi);
+                if cos_l <= 0.0 || d2 == 0.0 {
+                    return None;
+                }
+                Some(LightSample {
+                    wi,
+                    distance,
+                    point: q,
+                    li: s.le,
+                    pdf: s.pdf_area(n) * d2 / cos_l,
+                    delta: false,
+                    // Short of the point, as for spheres: on a curved face the ray's root
+                    // near a silhouette is inexact and must not find the light itself, and
+                    // the segment to the lit side of a convex shape cannot cross it.
+                    shadow_point: p + wi * (distance * (1.0 - 1.0e-3)),
+                    shadow_normal: None,
+                    normal: n,
                 })
             }
         }
@@ -215,6 +255,13 @@ impl Light {
                 let one_minus_cos_max =
                     if sin2_max < 1.0e-4 { 0.5 * sin2_max } else { 1.0 - (1.0 - sin2_max).sqrt() };
                 1.0 / (2.0 * PI * one_minus_cos_max)
+            }
+            Light::Shape(s) => {
+                let cos_l = n.dot(wi).abs();
+                if cos_l == 0.0 {
+                    return 0.0;
+                }
+                s.pdf_area(n) * (q - p).length_squared() / cos_l
             }
         }
     }
@@ -268,6 +315,10 @@ impl Light {
                 let n = uniform_sphere(u_pos);
                 (center + radius * n, n, le, 1.0 / (4.0 * PI * radius * radius))
             }
+            Light::Shape(s) => {
+                let (q, n) = s.sample_area(u_pos);
+                (q, n, s.le, s.pdf_area(n))
+            }
         };
         let local = crate::core::sampling::cosine_hemisphere(u_dir);
         let pdf_dir = local.z / PI;
@@ -287,13 +338,15 @@ impl Light {
         }
     }
 
-    /// Density per unit area with which [`Light::sample_le`] picks a point (1 for a point light).
+    /// Density per unit area with which [`Light::sample_le`] picks a point of unit normal
+    /// `normal` (1 for a point light; a stretched shape's density varies with the normal).
     #[inline]
-    pub fn pdf_le_pos(&self) -> f32 {
+    pub fn pdf_le_pos(&self, normal: Vec3) -> f32 {
         match *self {
             Light::Point { .. } => 1.0,
             Light::Triangle { area, .. } => 1.0 / area,
             Light::Sphere { radius, .. } => 1.0 / (4.0 * PI * radius * radius),
+            Light::Shape(s) => s.pdf_area(normal),
         }
     }
 
@@ -303,7 +356,7 @@ impl Light {
     pub fn le_towards(&self, normal: Vec3, dir: Vec3) -> Vec3 {
         match *self {
             Light::Point { intensity, .. } => intensity,
-            Light::Triangle { le, .. } | Light::Sphere { le, .. } => {
+            Light::Triangle { le, .. } | Light::Sphere { le, .. } | Light::Shape(ShapeLight { le, .. }) => {
                 if normal.dot(dir) > 0.0 {
                     le
                 } else {
@@ -332,35 +385,104 @@ pub struct Lights {
     triangle_light: Vec<u32>,
     /// Light index of each sphere, or `NOT_A_LIGHT`.
     sphere_light: Vec<u32>,
+    /// Light index of each analytic shape, or `NOT_A_LIGHT`.
+    shape_light: Vec<u32>,
+    /// `(instance << 32 | triangle, light)` of every emissive triangle of an instance, sorted:
+    /// only the emissive copies' triangles take entries, so a forest of plain trees costs
+    /// nothing here.
+    instance_light: Vec<(u64, u32)>,
+}
+
+/// The primitives of a scene that may emit, for [`Lights::from_emitters`].
+#[derive(Clone, Copy, Default)]
+pub struct Emitters<'a> {
+    /// The scene's own triangles.
+    pub mesh: Option<&'a TriangleMesh>,
+    /// The analytic spheres.
+    pub spheres: &'a [Sphere],
+    /// The transformed analytic shapes and their surfaces.
+    pub shapes: &'a [(Shape, SurfaceId)],
+    /// The meshes that instances place.
+    pub instance_meshes: &'a [TriangleMesh],
+    /// The placed copies, in the order their set was built from
+    /// ([`crate::core::InstanceSet::build`]).
+    pub instances: &'a [Instance],
 }
 
 impl Lights {
     /// Collects point lights plus every triangle and sphere whose surface emits, per
     /// `emission[surface_id]`.
     pub fn new(points: &[(Vec3, Vec3)], mesh: &TriangleMesh, spheres: &[Sphere], emission: &[Vec3]) -> Self {
+        Self::from_emitters(points, &Emitters { mesh: Some(mesh), spheres, ..Emitters::default() }, emission)
+    }
+
+    /// Collects point lights plus every triangle, sphere, shape and instanced triangle of
+    /// `emitters` whose surface emits, per `emission[surface_id]` (lights in that order). A
+    /// quadric shape never emits (it has no closed-form area; the loader refuses one).
+    pub fn from_emitters(points: &[(Vec3, Vec3)], emitters: &Emitters, emission: &[Vec3]) -> Self {
+        let emits =
+            |surface: SurfaceId| emission.get(surface as usize).copied().filter(|e| e.max_element() > 0.0);
         let mut lights: Vec<Light> =
             points.iter().map(|&(position, intensity)| Light::Point { position, intensity }).collect();
-        let mut triangle_light = vec![NOT_A_LIGHT; mesh.triangle_count()];
-        for (i, tl) in triangle_light.iter_mut().enumerate() {
-            let le = emission[mesh.surface_of_triangle[i] as usize];
-            if le.max_element() <= 0.0 {
-                continue;
+        let mesh_triangles = emitters.mesh.map_or(0, TriangleMesh::triangle_count);
+        let mut triangle_light = vec![NOT_A_LIGHT; mesh_triangles];
+        if let Some(mesh) = emitters.mesh {
+            for (i, tl) in triangle_light.iter_mut().enumerate() {
+                let Some(le) = emits(mesh.surface_of_triangle[i]) else { continue };
+                if let Some(light) = triangle(mesh.corners(i), le) {
+                    *tl = lights.len() as u32;
+                    lights.push(light);
+                }
             }
-            let [a, b, c] = mesh.corners(i);
-            let cross = (b - a).cross(c - a);
-            let area = 0.5 * cross.length();
-            if area <= 0.0 {
-                continue;
-            }
-            *tl = lights.len() as u32;
-            lights.push(Light::Triangle { p0: a, e1: b - a, e2: c - a, normal: cross.normalize(), area, le });
         }
-        let mut sphere_light = vec![NOT_A_LIGHT; spheres.len()];
-        for (s, sl) in spheres.iter().zip(&mut sphere_light) {
-            let le = emission[s.surface as usize];
-            if le.max_element() > 0.0 {
+        let mut sphere_light = vec![NOT_A_LIGHT; emitters.spheres.len()];
+        for (s, sl) in emitters.spheres.iter().zip(&mut sphere_light) {
+            if let Some(le) = emits(s.surface) {
                 *sl = lights.len() as u32;
                 lights.push(Light::Sphere { center: s.center, radius: s.radius_m, le });
+            }
+        }
+        let mut shape_light = vec![NOT_A_LIGHT; emitters.shapes.len()];
+        for ((shape, surface), sl) in emitters.shapes.iter().zip(&mut shape_light) {
+            let Some(le) = emits(*surface) else { continue };
+            // A round sphere (a similarity) takes the sphere light's sampling of the cone it
+            // subtends, which wastes no sample on its far side; other shapes sample by area.
+            let light = match round_sphere(shape) {
+                Some((center, radius)) => Some(Light::Sphere { center, radius, le }),
+                None => ShapeLight::new(shape, le).map(Light::Shape),
+            };
+            if let Some(light) = light {
+                *sl = lights.len() as u32;
+                lights.push(light);
+            }
+        }
+        // Instances are numbered as `InstanceSet::build` places them: it skips a copy of an
+        // empty mesh or with an invalid transform (the loader refuses the latter).
+        let mut instance_light = Vec::new();
+        let mut placed = 0u64;
+        for inst in emitters.instances {
+            let Some(mesh) = emitters.instance_meshes.get(inst.mesh as usize) else { continue };
+            if mesh.bounds().is_none() || !Instance::transform_is_valid(&inst.object_to_world) {
+                continue;
+            }
+            placed += 1;
+            // Most copies emit nothing: one look at their few surfaces, not their triangles.
+            let surface_of = |s: SurfaceId| inst.surfaces.get(s as usize).copied().unwrap_or(s);
+            let ids = mesh.surface_names.len().max(inst.surfaces.len()) as SurfaceId;
+            if !(0..ids).any(|s| emits(surface_of(s)).is_some()) {
+                continue;
+            }
+            let mirrored = inst.object_to_world.matrix3.determinant() < 0.0;
+            for (t, &s) in mesh.surface_of_triangle.iter().enumerate() {
+                let Some(le) = emits(surface_of(s)) else { continue };
+                let [a, b, c] = mesh.corners(t).map(|p| inst.object_to_world.transform_point3(p));
+                // A mirrored copy is rewound so that its right-hand normal is the transformed
+                // normal the instance's hits report (as `flatten` does).
+                let corners = if mirrored { [a, c, b] } else { [a, b, c] };
+                if let Some(light) = triangle(corners, le) {
+                    instance_light.push(((placed - 1) << 32 | t as u64, lights.len() as u32));
+                    lights.push(light);
+                }
             }
         }
         let weights: Vec<f32> = lights.iter().map(|l| l.power().element_sum().max(0.0)).collect();
@@ -380,7 +502,17 @@ impl Lights {
             .collect();
         let cdf_below = std::iter::once(0.0).chain(cdf.iter().copied()).take(lights.len()).collect();
         let inv_pmf = pmf.iter().map(|p| if *p > 0.0 { 1.0 / p } else { 0.0 }).collect();
-        Self { lights, pmf, cdf, cdf_below, inv_pmf, triangle_light, sphere_light }
+        Self {
+            lights,
+            pmf,
+            cdf,
+            cdf_below,
+            inv_pmf,
+            triangle_light,
+            sphere_light,
+            shape_light,
+            instance_light,
+        }
     }
 
     /// Whether there is no light.
@@ -426,6 +558,53 @@ impl Lights {
     pub fn of_sphere(&self, s: u32) -> Option<usize> {
         self.sphere_light.get(s as usize).filter(|&&l| l != NOT_A_LIGHT).map(|&l| l as usize)
     }
+
+    /// The light that analytic shape `s` is, if any.
+    #[inline]
+    pub fn of_shape(&self, s: u32) -> Option<usize> {
+        self.shape_light.get(s as usize).filter(|&&l| l != NOT_A_LIGHT).map(|&l| l as usize)
+    }
+
+    /// Whether some instanced triangle is a light.
+    #[inline]
+    pub fn has_instance_lights(&self) -> bool {
+        !self.instance_light.is_empty()
+    }
+
+    /// The light that triangle `triangle` of instance `instance` (numbered as its set
+    /// places it) is, if any.
+    #[inline]
+    pub fn of_instance_triangle(&self, instance: u32, triangle: u32) -> Option<usize> {
+        let key = u64::from(instance) << 32 | u64::from(triangle);
+        self.instance_light
+            .binary_search_by_key(&key, |e| e.0)
+            .ok()
+            .map(|i| self.instance_light[i].1 as usize)
+    }
+}
+
+/// Centre and radius of a sphere shape whose transform is a similarity (`M^T M = s^2 I` to
+/// 1e-5), else `None`.
+fn round_sphere(shape: &Shape) -> Option<(Vec3, f32)> {
+    if shape.kind != crate::core::shapes::ShapeKind::Sphere {
+        return None;
+    }
+    let m = glam::Mat3::from(shape.object_to_world.matrix3);
+    let g = m.transpose() * m;
+    let s2 = (g.x_axis.x + g.y_axis.y + g.z_axis.z) / 3.0;
+    let off = (g - glam::Mat3::from_diagonal(Vec3::splat(s2)))
+        .to_cols_array()
+        .iter()
+        .fold(0.0f32, |a, v| a.max(v.abs()));
+    (s2 > 0.0 && off <= 1e-5 * s2).then(|| (Vec3::from(shape.object_to_world.translation), s2.sqrt()))
+}
+
+/// The light of an emissive triangle with corners `a, b, c` (normal by the right-hand rule),
+/// `None` when it has no area.
+fn triangle([a, b, c]: [Vec3; 3], le: Vec3) -> Option<Light> {
+    let cross = (b - a).cross(c - a);
+    let area = 0.5 * cross.length();
+    (area > 0.0).then(|| Light::Triangle { p0: a, e1: b - a, e2: c - a, normal: cross.normalize(), area, le })
 }
 
 #[cfg(test)]

@@ -35,6 +35,7 @@ pub mod pssmlt;
 pub mod radiosity;
 pub mod raycast;
 pub mod sampler;
+pub mod shape_light;
 pub mod splat;
 pub mod sppm;
 pub mod whitted;
@@ -50,7 +51,7 @@ use rand::RngCore;
 use crate::core::flat::FlatRay;
 use crate::core::rng::{Rng64, stream, uniform};
 use crate::core::sampling::orthonormal_basis;
-use crate::core::{Accel, Hit, PrimitiveKind, Ray, Sphere, TriangleMesh};
+use crate::core::{Accel, Hit, Instance, PrimitiveKind, Ray, Sphere, TriangleMesh};
 use crate::dist::Cluster;
 use crate::render::sampler::Sampler;
 use crate::scene::materials::{OpticalKind, OpticalProps};
@@ -322,10 +323,14 @@ impl<'a> RenderScene<'a> {
             s.desc.lights.iter().map(|l| (Vec3::from(l.position), Vec3::from(l.intensity))).collect();
         let background =
             s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
-        Self::from_parts(&world.accel, &s.mesh, &s.spheres, surfaces, &points, background)
+        let instances = (s.instances.meshes.as_slice(), s.instances.list.as_slice());
+        Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background)
     }
 
-    /// A render scene from its parts; `points` are (position, intensity) point lights.
+    /// A render scene from its parts; `points` are (position, intensity) point lights, the
+    /// shapes are `accel`'s. Emissive triangles of `accel`'s instances (if any) are not lights
+    /// here, for want of their meshes: they glow where a path hits them (see
+    /// [`RenderScene::with_instances`]).
     pub fn from_parts(
         accel: &'a Accel,
         mesh: &'a TriangleMesh,
@@ -334,8 +339,29 @@ impl<'a> RenderScene<'a> {
         points: &[(Vec3, Vec3)],
         background: Vec3,
     ) -> Self {
+        Self::with_instances(accel, mesh, spheres, (&[], &[]), surfaces, points, background)
+    }
+
+    /// [`RenderScene::from_parts`] with the meshes and placed copies `accel`'s instance set
+    /// was built from, whose emissive triangles become lights.
+    pub fn with_instances(
+        accel: &'a Accel,
+        mesh: &'a TriangleMesh,
+        spheres: &[Sphere],
+        instances: (&[TriangleMesh], &[Instance]),
+        surfaces: Vec<SurfaceOptics>,
+        points: &[(Vec3, Vec3)],
+        background: Vec3,
+    ) -> Self {
         let emission: Vec<Vec3> = surfaces.iter().map(|s| s.emission).collect();
-        let lights = Lights::new(points, mesh, spheres, &emission);
+        let emitters = lights::Emitters {
+            mesh: Some(mesh),
+            spheres,
+            shapes: &accel.shapes.shapes,
+            instance_meshes: instances.0,
+            instances: instances.1,
+        };
+        let lights = Lights::from_emitters(points, &emitters, &emission);
         let triangles = (0..mesh.triangle_count())
             .map(|i| {
                 let [a, b, c] = mesh.corners(i);
@@ -350,7 +376,8 @@ impl<'a> RenderScene<'a> {
         self.mesh
     }
 
-    /// The closest hit along `ray` (barycentrics are not computed: zero).
+    /// The closest hit along `ray` (barycentrics are not computed: zero; an instance's hit
+    /// carries the light it is in `primitive`, as `hit_of` explains).
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
         self.hit_of(ray, self.accel.mesh.closest_triangle(ray))
@@ -363,7 +390,11 @@ impl<'a> RenderScene<'a> {
         self.hit_of(ray, self.accel.mesh.closest_triangle_prepared(ray, flat_ray))
     }
 
-    /// The hit of `ray` given its closest triangle (mesh index, distance), spheres included.
+    /// The hit of `ray` given its closest triangle (mesh index, distance), spheres, instances
+    /// and shapes included. An instance's hit carries in `primitive` the light its triangle is
+    /// (`u32::MAX` when none) instead of the triangle's index in its mesh, which the renderer
+    /// has no other use for: a [`Hit`] has no room for the instance, which that light depends
+    /// on ([`RenderScene::light_of`]).
     #[inline(always)]
     pub(super) fn hit_of(&self, ray: &Ray, triangle: Option<(u32, f32)>) -> Option<Hit> {
         let mut best = triangle.map(|(i, t)| {
@@ -389,8 +420,13 @@ impl<'a> RenderScene<'a> {
                 r.t_max = h.t;
                 best = Some(h);
             }
-            if let Some(h) = self.accel.instances.closest_hit(&r) {
+            if let Some((inst, mut h)) = self.accel.instances.closest_hit_placed(&r) {
                 r.t_max = h.t;
+                h.primitive = if self.lights.has_instance_lights() {
+                    self.lights.of_instance_triangle(inst, h.primitive).map_or(u32::MAX, |l| l as u32)
+                } else {
+                    u32::MAX
+                };
                 best = Some(h);
             }
             if !self.accel.shapes.is_empty()
@@ -414,8 +450,11 @@ impl<'a> RenderScene<'a> {
         match hit.kind {
             PrimitiveKind::Triangle => self.lights.of_triangle(hit.primitive),
             PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
-            // Instanced surfaces and shapes are never lights: the loader refuses them.
-            PrimitiveKind::Instance | PrimitiveKind::Shape => None,
+            PrimitiveKind::Shape => self.lights.of_shape(hit.primitive),
+            // Set by `hit_of`: the light itself, or u32::MAX.
+            PrimitiveKind::Instance => (hit.primitive != u32::MAX
+                && (hit.primitive as usize) < self.lights.lights.len())
+            .then_some(hit.primitive as usize),
         }
     }
 

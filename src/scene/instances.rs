@@ -162,14 +162,6 @@ pub fn transform_of(d: &InstanceDesc) -> Result<Affine3A, String> {
     Ok(m)
 }
 
-/// Whether `s` emits light (its optical emission, else its MTL `Ke`).
-fn emits(s: &Surface) -> bool {
-    match s.material.as_ref().and_then(|m| m.optical.as_ref()) {
-        Some(o) => o.emission.max_element() > 0.0,
-        None => s.mtl.as_ref().and_then(|m| m.emission).is_some_and(|e| e.iter().any(|v| *v > 0.0)),
-    }
-}
-
 /// The triangles of the scene OBJ's objects named `name`, with their own vertices and
 /// surface names; `None` when no object has that name.
 fn object_mesh(obj: &ObjScene, mesh: &TriangleMesh, name: &str) -> Option<TriangleMesh> {
@@ -336,16 +328,6 @@ pub(crate) fn load_instances(
                     ));
                 }
                 surfaces.push(Surface { name: global, material, mtl });
-            }
-            if emits(&surfaces[id as usize]) {
-                return Err(invalid(
-                    i,
-                    d,
-                    format!(
-                        "surface \"{}\" emits light: instanced emitters are not supported (as in pbrt-v4); put lights in the scene's own OBJ",
-                        surfaces[id as usize].name
-                    ),
-                ));
             }
             ids.push(id);
         }

@@ -1,5 +1,7 @@
 //! `[[shapes]]` of a scene file: transformed analytic primitives ([`crate::core::shapes`]),
-//! placed with the transform keys of `[[instances]]` and given one material.
+//! placed with the transform keys of `[[instances]]` and given one material. A shape with an
+//! emissive material is an area light of the renderer ([`crate::render::shape_light`]),
+//! except a quadric, which is refused.
 
 use std::path::Path;
 
@@ -106,8 +108,12 @@ pub(crate) fn load_shapes(
             let near = library.nearest_names(&d.material, 3).join(", ");
             bad(format!("unknown material \"{}\" (nearest known: {near})", d.material))
         })?;
-        if material.optical.as_ref().is_some_and(|o| o.emission.max_element() > 0.0) {
-            return Err(bad(format!("material \"{}\" emits light: shapes are not lights", d.material)));
+        let emits = material.optical.as_ref().is_some_and(|o| o.emission.max_element() > 0.0);
+        if emits && matches!(kind, ShapeKind::Quadric { .. }) {
+            return Err(bad(format!(
+                "material \"{}\" emits light, but a quadric has no closed-form area to sample, so it cannot be a light (use a sphere, cylinder, cone, disk or box)",
+                d.material
+            )));
         }
         let name = format!("shape:{}", d.material);
         let id = mesh.surface_id(&name);
