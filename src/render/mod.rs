@@ -379,7 +379,10 @@ impl<'a> RenderScene<'a> {
                 front_face: normal.dot(ray.dir) < 0.0,
             }
         });
-        if !self.accel.spheres.is_empty() || !self.accel.instances.is_empty() || !self.accel.shapes.is_empty()
+        if !self.accel.spheres.is_empty()
+            || !self.accel.instances.is_empty()
+            || !self.accel.shapes.is_empty()
+            || !self.accel.sdfs.is_empty()
         {
             let mut r = *ray;
             if let Some(h) = &best {
@@ -395,6 +398,12 @@ impl<'a> RenderScene<'a> {
             }
             if !self.accel.shapes.is_empty()
                 && let Some(h) = self.accel.shapes_hit(&r)
+            {
+                r.t_max = h.t;
+                best = Some(h);
+            }
+            if !self.accel.sdfs.is_empty()
+                && let Some(h) = self.accel.sdfs_hit(&r)
             {
                 best = Some(h);
             }
@@ -414,8 +423,8 @@ impl<'a> RenderScene<'a> {
         match hit.kind {
             PrimitiveKind::Triangle => self.lights.of_triangle(hit.primitive),
             PrimitiveKind::Sphere => self.lights.of_sphere(hit.primitive),
-            // Instanced surfaces and shapes are never lights: the loader refuses them.
-            PrimitiveKind::Instance | PrimitiveKind::Shape => None,
+            // Instanced surfaces, shapes and fields are never lights: the loader refuses them.
+            PrimitiveKind::Instance | PrimitiveKind::Shape | PrimitiveKind::Sdf => None,
         }
     }
 
