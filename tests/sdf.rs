@@ -35,7 +35,7 @@ fn placement() -> Affine3A {
 fn sdf_sphere_matches_the_analytic_sphere_within_the_stated_accuracy() {
     let m = placement();
     let sdf = Sdf::new(node(SdfShape::Sphere { radius_m: 0.6 }, m), 512);
-    let c = m.translation.into();
+    let c: Vec3 = m.translation.into();
     let radius = 0.6f64 * 1.7;
     let (lo, hi) = sdf.bounds();
     let (mut hits, mut band, mut worst_point, mut worst_t) = (0, 0, 0.0f64, 0.0f64);
@@ -63,7 +63,13 @@ fn sdf_sphere_matches_the_analytic_sphere_within_the_stated_accuracy() {
         let disc = b * b - (oc.length_squared() - radius * radius);
         let t_true = if disc >= 0.0 {
             let s = disc.sqrt();
-            if -b - s > 0.0 { Some(-b - s) } else if -b + s > 0.0 { Some(-b + s) } else { None }
+            if -b - s > 0.0 {
+                Some(-b - s)
+            } else if -b + s > 0.0 {
+                Some(-b + s)
+            } else {
+                None
+            }
         } else {
             None
         };
@@ -86,7 +92,9 @@ fn sdf_sphere_matches_the_analytic_sphere_within_the_stated_accuracy() {
             (t, g) => panic!("ray {k}: analytic {t:?}, traced {g:?}, passes {miss_m} m from the surface"),
         }
     }
-    eprintln!("hits {hits}, silhouette band {band}, worst point error {worst_point:.3} eps, worst t {worst_t:.3} eps/cos");
+    eprintln!(
+        "hits {hits}, silhouette band {band}, worst point error {worst_point:.3} eps, worst t {worst_t:.3} eps/cos"
+    );
     assert!(hits > 20_000, "{hits}");
     assert!(band < 100, "{band} rays within eps of the silhouette");
 }
@@ -161,7 +169,10 @@ fn smooth_combinations_keep_the_lipschitz_bound() {
         SdfShape::RoundBox { half_m: Vec3::new(0.3, 0.4, 0.2), rounding_m: 0.05 },
         Affine3A::from_rotation_z(0.4) * Affine3A::from_translation(Vec3::new(0.3, 0.1, 0.0)),
     );
-    let c = node(SdfShape::Capsule { a: Vec3::ZERO, b: Vec3::new(0.0, 0.0, 0.6), radius_m: 0.1 }, Affine3A::IDENTITY);
+    let c = node(
+        SdfShape::Capsule { a: Vec3::ZERO, b: Vec3::new(0.0, 0.0, 0.6), radius_m: 0.1 },
+        Affine3A::IDENTITY,
+    );
     let k = 0.2;
     for shape in [
         SdfShape::SmoothUnion { children: vec![a.clone(), b.clone(), c.clone()], blend_m: k },
@@ -259,7 +270,8 @@ fn load_error(name: &str, body: &str) -> (String, String) {
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("room.obj"), common::box_obj([2.0, 2.0, 2.0])).unwrap();
     let path = dir.join("scene.toml");
-    std::fs::write(&path, format!("obj = \"room.obj\"\n[surfaces]\ntest_wall = \"concrete_rough\"\n{body}")).unwrap();
+    std::fs::write(&path, format!("obj = \"room.obj\"\n[surfaces]\ntest_wall = \"concrete_rough\"\n{body}"))
+        .unwrap();
     let err = match scene::load(&path, &LoadOptions::default()) {
         Ok(_) => panic!("{name}: loads"),
         Err(e) => e.to_string(),
@@ -273,16 +285,52 @@ fn load_error(name: &str, body: &str) -> (String, String) {
 fn bad_sdf_entries_fail_with_one_clear_line() {
     let cases = [
         ("unknown", "[[sdfs]]\nkind = \"blob\"\nmaterial = \"concrete_rough\"\n", "unknown kind \"blob\""),
-        ("radius", "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_rough\"\nradius_m = -1.0\n", "radius_m = -1"),
-        ("key", "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_rough\"\nradius_m = 1.0\nsize_m = [1.0, 1.0, 1.0]\n", "size_m is not a key of sphere"),
+        (
+            "radius",
+            "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_rough\"\nradius_m = -1.0\n",
+            "radius_m = -1",
+        ),
+        (
+            "key",
+            "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_rough\"\nradius_m = 1.0\nsize_m = [1.0, 1.0, 1.0]\n",
+            "size_m is not a key of sphere",
+        ),
         ("nomaterial", "[[sdfs]]\nkind = \"sphere\"\nradius_m = 0.5\n", "needs a material"),
-        ("rounding", "[[sdfs]]\nkind = \"rounded_box\"\nmaterial = \"concrete_rough\"\nsize_m = [0.2, 0.2, 0.2]\nrounding_m = 0.5\n", "rounding_m = 0.5"),
-        ("onechild", "[[sdfs]]\nkind = \"smooth_union\"\nmaterial = \"concrete_rough\"\n[[sdfs.children]]\nkind = \"sphere\"\nradius_m = 0.5\n", "at least two children"),
-        ("child", "[[sdfs]]\nkind = \"smooth_union\"\nmaterial = \"concrete_rough\"\n[[sdfs.children]]\nkind = \"sphere\"\nradius_m = 0.5\n[[sdfs.children]]\nkind = \"torus\"\nmajor_radius_m = 0.5\n", "child #2 (torus): needs minor_radius_m"),
-        ("power", "[[sdfs]]\nkind = \"mandelbulb\"\nmaterial = \"concrete_rough\"\npower = 40.0\n", "power = 40"),
-        ("steps", "[[sdfs]]\nkind = \"mandelbulb\"\nmaterial = \"concrete_rough\"\nscale = 0.5\ntranslate = [1.0, 1.0, 1.0]\nmax_steps = 3\n", "does not converge"),
-        ("capsule", "[[sdfs]]\nkind = \"capsule\"\nmaterial = \"concrete_rough\"\nfrom = [0.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nradius_m = 0.1\n", "distinct"),
-        ("material", "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_ruff\"\nradius_m = 0.5\n", "unknown material"),
+        (
+            "rounding",
+            "[[sdfs]]\nkind = \"rounded_box\"\nmaterial = \"concrete_rough\"\nsize_m = [0.2, 0.2, 0.2]\nrounding_m = 0.5\n",
+            "rounding_m = 0.5",
+        ),
+        (
+            "onechild",
+            "[[sdfs]]\nkind = \"smooth_union\"\nmaterial = \"concrete_rough\"\n[[sdfs.children]]\nkind = \"sphere\"\nradius_m = 0.5\n",
+            "at least two children",
+        ),
+        (
+            "child",
+            "[[sdfs]]\nkind = \"smooth_union\"\nmaterial = \"concrete_rough\"\n[[sdfs.children]]\nkind = \"sphere\"\nradius_m = 0.5\n[[sdfs.children]]\nkind = \"torus\"\nmajor_radius_m = 0.5\n",
+            "child #2 (torus): needs minor_radius_m",
+        ),
+        (
+            "power",
+            "[[sdfs]]\nkind = \"mandelbulb\"\nmaterial = \"concrete_rough\"\npower = 40.0\n",
+            "power = 40",
+        ),
+        (
+            "steps",
+            "[[sdfs]]\nkind = \"mandelbulb\"\nmaterial = \"concrete_rough\"\nscale = 0.5\ntranslate = [1.0, 1.0, 1.0]\nmax_steps = 3\n",
+            "does not converge",
+        ),
+        (
+            "capsule",
+            "[[sdfs]]\nkind = \"capsule\"\nmaterial = \"concrete_rough\"\nfrom = [0.0, 0.0, 0.0]\nto = [0.0, 0.0, 0.0]\nradius_m = 0.1\n",
+            "distinct",
+        ),
+        (
+            "material",
+            "[[sdfs]]\nkind = \"sphere\"\nmaterial = \"concrete_ruff\"\nradius_m = 0.5\n",
+            "unknown material",
+        ),
     ];
     for (name, body, needle) in cases {
         let (err, path) = load_error(name, body);

@@ -24,7 +24,8 @@ use crate::core::sampling::uniform_sphere;
 use crate::core::sdf::{DEFAULT_MAX_STEPS, March, Sdf, SdfNode, SdfShape};
 
 /// The kinds, as written in a scene file.
-pub const KINDS: &str = "sphere, box, rounded_box, torus, capsule, mandelbulb, smooth_union or smooth_subtraction";
+pub const KINDS: &str =
+    "sphere, box, rounded_box, torus, capsule, mandelbulb, smooth_union or smooth_subtraction";
 /// Probe rays traced per field at load time.
 pub const PROBE_RAYS: u32 = 256;
 /// Nesting limit of `children`.
@@ -172,9 +173,14 @@ fn node_of(d: &SdfDesc, depth: usize) -> Result<SdfNode, String> {
             let mut children = Vec::with_capacity(d.children.len());
             for (i, c) in d.children.iter().enumerate() {
                 if c.material.is_some() || c.max_steps.is_some() {
-                    return Err(format!("child #{} ({}): material and max_steps belong to the top level", i + 1, c.kind));
+                    return Err(format!(
+                        "child #{} ({}): material and max_steps belong to the top level",
+                        i + 1,
+                        c.kind
+                    ));
                 }
-                children.push(node_of(c, depth + 1).map_err(|e| format!("child #{} ({}): {e}", i + 1, c.kind))?);
+                children
+                    .push(node_of(c, depth + 1).map_err(|e| format!("child #{} ({}): {e}", i + 1, c.kind))?);
             }
             if kind == "smooth_union" {
                 SdfShape::SmoothUnion { children, blend_m }
@@ -251,7 +257,9 @@ pub(crate) fn load_sdfs(
             bad(format!("unknown material \"{name}\" (nearest known: {near})"))
         })?;
         if material.optical.as_ref().is_some_and(|o| o.emission.max_element() > 0.0) {
-            return Err(bad(format!("material \"{name}\" emits light: signed distance fields are not lights")));
+            return Err(bad(format!(
+                "material \"{name}\" emits light: signed distance fields are not lights"
+            )));
         }
         let surface = format!("sdf:{name}");
         let id = mesh.surface_id(&surface);
