@@ -217,7 +217,7 @@ fn mandelbulb(p: Vec3, power: f32, iterations: u32) -> f32 {
     let mut r = z.length();
     for _ in 0..iterations {
         r = z.length();
-        if r > MANDELBULB_BAILOUT || r < 1.0e-12 {
+        if !(1.0e-12..=MANDELBULB_BAILOUT).contains(&r) {
             break;
         }
         let theta = (z.z / r).clamp(-1.0, 1.0).acos() * power;
@@ -407,14 +407,15 @@ impl Sdf {
             relaxed = armed && omega > 1.0;
             (t_prev, r_prev) = (t, r);
             t += step;
-            if !(t <= t1) {
+            // (A NaN step, which no finite field gives, ends the march too.)
+            if t.is_nan() || t > t1 {
                 // A long step may leave the box past a surface near its face: take the plain
                 // one instead.
                 if !relaxed {
                     return March::Miss;
                 }
                 (t, omega, relaxed) = (t_prev + r_prev, 1.0, false);
-                if !(t <= t1) {
+                if t > t1 {
                     return March::Miss;
                 }
             }
