@@ -424,18 +424,20 @@ impl Sdf {
     }
 
     /// Secant steps from the hit `(t, r)` (with the previous sample `(t_prev, r_prev)`)
-    /// towards the zero of the field along the ray; the best point found, if within the
-    /// segment.
+    /// towards the zero of the field along the ray, or a plain sphere-tracing step where
+    /// the two samples give no secant (a hit at the first sample); the best point found, if
+    /// within the segment.
     fn refine(&self, ray: &Ray, scale: f32, prev: (f32, f32), hit: (f32, f32), t1: f32) -> March {
         let (mut a, mut b) = (prev, hit);
         let mut best = hit;
-        for _ in 0..4 {
-            let slope = b.1 - a.1;
-            if !(slope < 0.0 && b.0 > a.0) || best.1 == 0.0 {
+        let fine = 1.0e-3 * (hit.1.abs() + f32::MIN_POSITIVE);
+        for _ in 0..6 {
+            if best.1.abs() <= fine {
                 break;
             }
-            let t = b.0 - b.1 * (b.0 - a.0) / slope;
-            if !(t.is_finite() && t > a.0) {
+            let slope = b.1 - a.1;
+            let t = if slope < 0.0 && b.0 > a.0 { b.0 - b.1 * (b.0 - a.0) / slope } else { b.0 + b.1 };
+            if !(t.is_finite() && t > a.0.min(b.0)) || t == b.0 {
                 break;
             }
             let r = self.distance(ray.at(t)) * scale;
