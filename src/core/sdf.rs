@@ -453,14 +453,21 @@ impl Sdf {
     /// out of steps counts as a hit where it came within 2 `eps` of the surface (it was
     /// creeping along it), else as a miss.
     pub fn intersect(&self, ray: &Ray) -> Option<(f32, Vec3)> {
-        let t = match self.march(ray) {
-            March::Hit(t) => t,
-            March::Exhausted(t, ratio) if ratio < 2.0 => t,
-            _ => return None,
-        };
+        let t = self.hit_distance(ray)?;
         let dl = ray.dir.length();
         let h = 0.5 * self.accuracy_m(t * dl);
         Some((t, self.normal(ray.at(t), h)))
+    }
+}
+
+impl Sdf {
+    /// The distance of [`Sdf::intersect`]'s hit, without the normal (shadow rays).
+    pub fn hit_distance(&self, ray: &Ray) -> Option<f32> {
+        match self.march(ray) {
+            March::Hit(t) => Some(t),
+            March::Exhausted(t, ratio) if ratio < 2.0 => Some(t),
+            _ => None,
+        }
     }
 }
 
@@ -499,7 +506,7 @@ impl SdfSet {
 
     /// Whether any field blocks the segment.
     pub fn occluded(&self, ray: &Ray) -> bool {
-        self.sdfs.iter().any(|(s, _)| s.intersect(ray).is_some())
+        self.sdfs.iter().any(|(s, _)| s.hit_distance(ray).is_some())
     }
 }
 
