@@ -251,18 +251,31 @@ fn the_sdf_room_renders_the_same_on_one_and_two_threads() {
     let refused = propsim::render::radiosity::supported(&scene).expect_err("radiosity refuses fields");
     assert!(refused.contains("signed distance fields") && !refused.contains('\n'), "{refused}");
     // Primary visibility: the camera's rays over the image meet every field.
-    let mut kinds = std::collections::BTreeSet::new();
+    let mut kinds = std::collections::BTreeMap::new();
     for y in 0..36 {
         for x in 0..48 {
             let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 48.0, (y as f32 + 0.5) / 36.0), Vec2::splat(0.5));
             if let Some(h) = scene.intersect(&ray)
                 && h.kind == propsim::core::PrimitiveKind::Sdf
             {
-                kinds.insert(h.primitive);
+                kinds.insert(h.primitive, ray);
             }
         }
     }
     assert_eq!(kinds.len(), 4, "fields seen by the camera: {kinds:?}");
+    // The launchers' queries (acoustic and radio rays, batch and single) and the shadow-ray
+    // query see them too, on a camera ray that met each field.
+    let rays: Vec<Ray> = kinds.values().copied().collect();
+    let mut batch = vec![None; rays.len()];
+    world.accel.closest_hits_into(&rays, &mut batch);
+    for (i, (ray, b)) in rays.iter().zip(&batch).enumerate() {
+        let h = world.accel.closest_hit(ray).expect("a hit");
+        assert_eq!(Some(h), *b, "field {i}: batch and single queries agree");
+        assert_eq!(h.kind, propsim::core::PrimitiveKind::Sdf, "field {i}: {h:?}");
+        let before = Ray::segment(ray.origin, ray.dir, 0.99 * h.t);
+        let through = Ray::segment(ray.origin, ray.dir, 1.01 * h.t);
+        assert!(!world.accel.occluded(&before) && world.accel.occluded(&through), "field {i}");
+    }
 }
 
 /// Writes `body` after a minimal room as `scene.toml` in a fresh directory; the load error.
