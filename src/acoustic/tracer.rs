@@ -456,9 +456,11 @@ impl Propagation for SoundPropagation<'_> {
             return Bounce::Continue(to_world(local, hit.facing_normal()).normalize());
         }
         ray_state.specular_order = match hit.kind {
-            // A curved mirror has no image source, nor has a shape or an instance (the image
+            // A curved mirror has no image source, nor has a shape, a field or an instance (the image
             // sources see the scene's own mesh): the rays keep what they find.
-            PrimitiveKind::Sphere | PrimitiveKind::Shape | PrimitiveKind::Instance => None,
+            PrimitiveKind::Sphere | PrimitiveKind::Shape | PrimitiveKind::Sdf | PrimitiveKind::Instance => {
+                None
+            }
             PrimitiveKind::Triangle => ray_state.specular_order.map(|o| o + 1),
         };
         // The mirror direction is the same for either orientation of the normal.

@@ -633,6 +633,8 @@ pub struct Accel {
     pub instances: InstanceSet,
     /// Transformed analytic shapes (empty for most scenes).
     pub shapes: super::shapes::ShapeSet,
+    /// Signed distance fields (empty for most scenes).
+    pub sdfs: super::sdf::SdfSet,
     /// True when there are neither spheres nor instances: the queries stop at the mesh.
     mesh_only: bool,
     /// Corners of a box holding every triangle and sphere (empty: lower above upper).
@@ -652,6 +654,7 @@ impl Accel {
             spheres: SphereSet::new(spheres),
             instances: InstanceSet::default(),
             shapes: super::shapes::ShapeSet::default(),
+            sdfs: super::sdf::SdfSet::default(),
             mesh_only,
             bounds,
         }
@@ -674,6 +677,18 @@ impl Accel {
         }
         self.mesh_only &= shapes.is_empty();
         self.shapes = shapes;
+        self
+    }
+
+    /// This structure with the signed distance fields `sdfs` added (their bounds join the
+    /// scene's).
+    pub fn with_sdfs(mut self, sdfs: super::sdf::SdfSet) -> Self {
+        for (s, _) in &sdfs.sdfs {
+            let (lo, hi) = s.bounds();
+            self.bounds = (self.bounds.0.min(lo), self.bounds.1.max(hi));
+        }
+        self.mesh_only &= sdfs.is_empty();
+        self.sdfs = sdfs;
         self
     }
 
@@ -731,9 +746,30 @@ impl Accel {
         if !self.shapes.is_empty()
             && let Some(h) = self.shapes_hit(&r)
         {
+            r.t_max = h.t;
+            best = Some(h);
+        }
+        if !self.sdfs.is_empty()
+            && let Some(h) = self.sdfs_hit(&r)
+        {
             best = Some(h);
         }
         best
+    }
+
+    /// The closest signed-distance-field hit as a [`Hit`].
+    #[inline(never)]
+    pub fn sdfs_hit(&self, ray: &Ray) -> Option<Hit> {
+        self.sdfs.closest(ray).map(|(i, t, normal)| Hit {
+            t,
+            point: ray.at(t),
+            normal,
+            barycentric: Vec2::ZERO,
+            primitive: i as u32,
+            kind: PrimitiveKind::Sdf,
+            surface: self.sdfs.sdfs[i].1,
+            front_face: normal.dot(ray.dir) < 0.0,
+        })
     }
 
     /// The closest shape hit as a [`Hit`].
@@ -763,6 +799,7 @@ impl Accel {
         !self.spheres.is_empty() && self.spheres.occluded(ray)
             || !self.instances.is_empty() && self.instances.occluded(ray)
             || !self.shapes.is_empty() && self.shapes.occluded(ray)
+            || !self.sdfs.is_empty() && self.sdfs.occluded(ray)
     }
 
     /// Calls `f` for every triangle hit on the ray, the mesh's and the instances', in no
@@ -803,6 +840,13 @@ impl Accel {
         if !self.shapes.is_empty() {
             for (hit, ray) in out.iter_mut().zip(rays) {
                 if let Some(h) = self.shapes_hit(&limited(ray, hit)) {
+                    *hit = Some(h);
+                }
+            }
+        }
+        if !self.sdfs.is_empty() {
+            for (hit, ray) in out.iter_mut().zip(rays) {
+                if let Some(h) = self.sdfs_hit(&limited(ray, hit)) {
                     *hit = Some(h);
                 }
             }

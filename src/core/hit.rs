@@ -14,6 +14,8 @@ pub enum PrimitiveKind {
     Sphere,
     /// A transformed analytic shape (`Hit::primitive` indexes the scene's shapes).
     Shape,
+    /// A signed distance field (`Hit::primitive` indexes the scene's fields).
+    Sdf,
     /// A triangle of an instance's mesh (`Hit::primitive` indexes that mesh's triangles;
     /// `InstanceSet::closest_hit_placed` also gives the instance). The variant carries no
     /// index so that a `Hit` stays 48 bytes: the launcher keeps one per ray in flight.

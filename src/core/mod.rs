@@ -19,6 +19,7 @@ pub mod queries;
 pub mod ray;
 pub mod rng;
 pub mod sampling;
+pub mod sdf;
 pub mod shapes;
 pub mod share;
 pub mod spectrum;

@@ -39,6 +39,7 @@ pub fn applies(scene: &RenderScene, settings: &RenderSettings) -> bool {
         && scene.accel.spheres.is_empty()
         && scene.accel.instances.is_empty()
         && scene.accel.shapes.is_empty()
+        && scene.accel.sdfs.is_empty()
         && scene.surfaces.iter().all(|o| matches!(o.bsdf, Bsdf::Lambert { .. }))
         && scene.lights.lights.iter().all(|l| matches!(l, Light::Triangle { .. }))
 }

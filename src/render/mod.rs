@@ -410,7 +410,10 @@ impl<'a> RenderScene<'a> {
                 front_face: normal.dot(ray.dir) < 0.0,
             }
         });
-        if !self.accel.spheres.is_empty() || !self.accel.instances.is_empty() || !self.accel.shapes.is_empty()
+        if !self.accel.spheres.is_empty()
+            || !self.accel.instances.is_empty()
+            || !self.accel.shapes.is_empty()
+            || !self.accel.sdfs.is_empty()
         {
             let mut r = *ray;
             if let Some(h) = &best {
@@ -431,6 +434,12 @@ impl<'a> RenderScene<'a> {
             }
             if !self.accel.shapes.is_empty()
                 && let Some(h) = self.accel.shapes_hit(&r)
+            {
+                r.t_max = h.t;
+                best = Some(h);
+            }
+            if !self.accel.sdfs.is_empty()
+                && let Some(h) = self.accel.sdfs_hit(&r)
             {
                 best = Some(h);
             }
@@ -455,6 +464,8 @@ impl<'a> RenderScene<'a> {
             PrimitiveKind::Instance => (hit.primitive != u32::MAX
                 && (hit.primitive as usize) < self.lights.lights.len())
             .then_some(hit.primitive as usize),
+            // Fields are never lights: the loader refuses an emissive one.
+            PrimitiveKind::Sdf => None,
         }
     }
 

@@ -45,6 +45,9 @@ pub struct SceneDesc {
     /// Transformed analytic shapes (`[[shapes]]`).
     #[serde(default)]
     pub shapes: Vec<super::shapes::ShapeDesc>,
+    /// Signed distance fields (`[[sdfs]]`).
+    #[serde(default)]
+    pub sdfs: Vec<super::sdf::SdfDesc>,
     /// Placed copies of meshes (`[[instances]]`).
     #[serde(default)]
     pub instances: Vec<super::instances::InstanceDesc>,

@@ -42,6 +42,8 @@ pub struct Scene {
     pub instances: SceneInstances,
     /// Transformed analytic shapes (`[[shapes]]`) and their surfaces.
     pub shapes: Vec<(crate::core::shapes::Shape, u32)>,
+    /// Signed distance fields (`[[sdfs]]`) and their surfaces.
+    pub sdfs: Vec<(crate::core::sdf::Sdf, u32)>,
     /// The scene description.
     pub desc: SceneDesc,
     /// The materials.
@@ -56,6 +58,7 @@ impl Scene {
         let mut used: std::collections::BTreeSet<u32> =
             self.mesh.surface_of_triangle.iter().copied().collect();
         used.extend(self.shapes.iter().map(|(_, s)| *s));
+        used.extend(self.sdfs.iter().map(|(_, s)| *s));
         for i in &self.instances.list {
             let local: std::collections::BTreeSet<u32> =
                 self.instances.meshes[i.mesh as usize].surface_of_triangle.iter().copied().collect();
@@ -310,6 +313,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
     )?;
 
     let shapes = super::shapes::load_shapes(path, &desc.shapes, &library, &mut mesh, &mut surfaces)?;
+    let sdfs = super::sdf::load_sdfs(path, &desc.sdfs, &library, &mut mesh, &mut surfaces)?;
 
     // Positions given in the description must be finite.
     if let Some(c) = &desc.camera {
@@ -345,6 +349,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         spheres,
         instances,
         shapes,
+        sdfs,
         desc,
         library,
         warnings,

@@ -11,6 +11,7 @@ pub mod materials;
 pub mod obj;
 pub mod placement;
 pub mod report;
+pub mod sdf;
 pub mod shapes;
 pub mod world;
 

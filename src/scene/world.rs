@@ -7,6 +7,7 @@ use super::error::SceneError;
 use super::load::Scene;
 use crate::core::TriangleMesh;
 use crate::core::accel::instances::{flatten, transformed_box};
+use crate::core::sdf::SdfSet;
 use crate::core::shapes::ShapeSet;
 use crate::core::{Accel, BuildQuality, InstanceSet, PrimitiveKind, accel::point_enclosed};
 
@@ -96,6 +97,10 @@ impl World {
             let (lo, hi) = s.bounds();
             b = (b.0.min(lo), b.1.max(hi));
         }
+        for (s, _) in &self.accel.sdfs.sdfs {
+            let (lo, hi) = s.bounds();
+            b = (b.0.min(lo), b.1.max(hi));
+        }
         Some(b)
     }
 
@@ -105,7 +110,8 @@ impl World {
         let i = &scene.instances;
         let accel = Accel::build(&scene.mesh, scene.spheres.clone(), quality)
             .with_instances(InstanceSet::build(&i.meshes, &i.list, quality))
-            .with_shapes(ShapeSet::new(scene.shapes.clone()));
+            .with_shapes(ShapeSet::new(scene.shapes.clone()))
+            .with_sdfs(SdfSet::new(scene.sdfs.clone()));
         let instance_reports: Vec<MeshReport> = i.meshes.iter().map(analyze).collect();
         let report = add_instances(analyze(&scene.mesh), &i.meshes, &instance_reports, &i.list);
         Self { scene, accel, report, instance_reports }
@@ -126,7 +132,8 @@ impl World {
         mesh.triangles.extend(copies.triangles.iter().map(|t| t.map(|i| base + i)));
         mesh.surface_of_triangle.extend(&copies.surface_of_triangle);
         let accel = Accel::build(&mesh, self.scene.spheres.clone(), BuildQuality::default())
-            .with_shapes(ShapeSet::new(self.scene.shapes.clone()));
+            .with_shapes(ShapeSet::new(self.scene.shapes.clone()))
+            .with_sdfs(SdfSet::new(self.scene.sdfs.clone()));
         Some(FlatGeometry { mesh, accel })
     }
 

@@ -126,6 +126,7 @@ pub fn supported(scene: &RenderScene) -> Result<(), String> {
     let what = [
         (!a.spheres.is_empty(), "spheres"),
         (!a.shapes.is_empty(), "shapes"),
+        (!a.sdfs.is_empty(), "signed distance fields"),
         (!a.instances.is_empty(), "instances"),
         (scene.lights.lights.iter().any(|l| matches!(l, super::Light::Point { .. })), "point lights"),
     ];
