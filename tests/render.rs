@@ -6,6 +6,7 @@ mod common;
 use common::render::{go, settings};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
+use propsim::render::medium::Medium;
 use propsim::render::pssmlt::MltOptions;
 use propsim::render::{Bsdf, Camera, Film, IntegratorKind, RenderScene, RenderSettings, SurfaceOptics};
 use propsim::scene::{self, LoadOptions, World};
@@ -324,8 +325,15 @@ fn same_seed_same_image_on_one_and_two_threads() {
         IntegratorKind::Sppm,
         IntegratorKind::Ppm,
         IntegratorKind::Pssmlt,
+        IntegratorKind::Volpath,
     ] {
         let s = RenderSettings {
+            // (Only volpath sees the fog.)
+            fog: Some(Medium {
+                sigma_a_per_m: Vec3::splat(0.1),
+                sigma_s_per_m: Vec3::new(0.5, 0.8, 1.1),
+                g: 0.3,
+            }),
             width: 45,
             height: 30,
             spp: 6,
@@ -363,4 +371,65 @@ fn same_seed_same_image_on_one_and_two_threads() {
     };
     let bits = |f: &Film| f.pixels.iter().flat_map(|p| p.to_array().map(f32::to_bits)).collect::<Vec<u32>>();
     assert_eq!(bits(&run(1)), bits(&run(2)));
+}
+
+/// Volumetric path tracing: a white furnace filled with a fog that only scatters (albedo 1,
+/// forward-scattering) still converges to `le / (1 - r)`, since a medium in equilibrium with
+/// an isotropic radiance field changes nothing; and an emitter seen through a fog that only
+/// absorbs is dimmed by Beer-Lambert's `exp(-sigma_a d)`, per channel.
+#[test]
+fn volpath_keeps_the_furnace_and_follows_beer_lambert() {
+    let (r, le) = (0.6f32, 1.0f32);
+    let mut mesh = TriangleMesh::default();
+    let id = mesh.surface_id("wall");
+    mesh.push_box(Vec3::ZERO, Vec3::new(2.0, 3.0, 1.5), 2, id);
+    mesh.flip_winding();
+    let accel = Accel::build(&mesh, vec![], BuildQuality::default());
+    let optics =
+        vec![SurfaceOptics { bsdf: Bsdf::Lambert { albedo: Vec3::splat(r) }, emission: Vec3::splat(le) }];
+    let scene = RenderScene::from_parts(&accel, &mesh, &[], optics, &[], Vec3::ZERO);
+    let cam =
+        Camera::look_at(Vec3::new(1.0, 0.5, 0.7), Vec3::new(1.2, 3.0, 0.9), Vec3::Z, 90.0, 1.0).unwrap();
+    let expect = le / (1.0 - r);
+    // Mean free paths of 0.8 to 1.25 m in a room of 1.5 to 3 m: most paths scatter in the
+    // fog. (Fogs whose channels differ several-fold converge too, but slowly: the weights of
+    // the per-flight spectral MIS multiply along a path, see docs/render.md.)
+    let fog = Medium { sigma_a_per_m: Vec3::ZERO, sigma_s_per_m: Vec3::new(0.8, 1.0, 1.25), g: 0.5 };
+    let mut s = settings(24, 32, 400, IntegratorKind::Volpath, 1);
+    s.fog = Some(fog);
+    let mean = go(&scene, &cam, &s).mean();
+    eprintln!("volpath furnace in fog: mean {mean}, expected {expect}");
+    assert!((mean - Vec3::splat(expect)).abs().max_element() < 0.015 * expect, "{mean} vs {expect}");
+    // The test can fail: the same fog absorbing a tenth of what it scatters darkens it.
+    s.fog = Some(Medium { sigma_a_per_m: fog.sigma_s_per_m * 0.1, ..fog });
+    let darker = go(&scene, &cam, &s).mean();
+    assert!(darker.max_element() < 0.9 * expect, "absorbing fog: {darker}");
+
+    // An emissive wall 2 m ahead, seen through a 1-degree view: every camera ray crosses
+    // 2 m of fog (to 1.5e-4), so each pixel tends to Le exp(-sigma_a 2 m).
+    let mut wall = TriangleMesh::default();
+    let id = wall.surface_id("emitter");
+    wall.push_quad(
+        Vec3::new(1.0, 2.0, -1.0),
+        Vec3::new(1.0, 2.0, 1.0),
+        Vec3::new(-1.0, 2.0, 1.0),
+        Vec3::new(-1.0, 2.0, -1.0),
+        id,
+    );
+    let accel = Accel::build(&wall, vec![], BuildQuality::default());
+    let le = Vec3::new(1.0, 2.0, 3.0);
+    let optics = vec![SurfaceOptics { bsdf: Bsdf::Lambert { albedo: Vec3::ZERO }, emission: le }];
+    let scene = RenderScene::from_parts(&accel, &wall, &[], optics, &[], Vec3::ZERO);
+    let cam = Camera::look_at(Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0), Vec3::Z, 1.0, 1.0).unwrap();
+    let sigma_a = Vec3::new(0.2, 0.5, 1.0);
+    let mut s = settings(16, 256, 4, IntegratorKind::Volpath, 3);
+    s.fog = Some(Medium { sigma_a_per_m: sigma_a, sigma_s_per_m: Vec3::ZERO, g: 0.0 });
+    let film = go(&scene, &cam, &s);
+    let mean = film.mean();
+    let beer = le * (-sigma_a * 2.0).exp();
+    eprintln!("volpath through absorbing fog: {mean} vs Beer-Lambert {beer}");
+    // 65,536 flights, each reaching the wall with probability >= exp(-2): 1.5 % is > 4 sigma.
+    for c in 0..3 {
+        assert!((mean[c] / beer[c] - 1.0).abs() < 0.015, "channel {c}: {mean} vs {beer}");
+    }
 }

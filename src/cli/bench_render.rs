@@ -50,6 +50,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         photons: Default::default(),
         radiosity: Default::default(),
         mlt: Default::default(),
+        fog: None,
     };
     settings.validate().map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::io::memory::check_fits(

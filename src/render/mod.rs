@@ -28,6 +28,7 @@ pub mod job;
 pub mod lanes;
 pub mod light;
 pub mod lights;
+pub mod medium;
 pub mod options;
 pub mod path;
 pub mod photon_grid;
@@ -38,6 +39,7 @@ pub mod sampler;
 pub mod shape_light;
 pub mod splat;
 pub mod sppm;
+pub mod volpath;
 pub mod whitted;
 
 use std::str::FromStr;
@@ -100,12 +102,25 @@ pub enum IntegratorKind {
     Radiosity,
     /// Primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002).
     Pssmlt,
+    /// Volumetric path tracing through a homogeneous fog (`RenderSettings::fog`).
+    Volpath,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 10] =
-        ["raycast", "whitted", "distributed", "path", "light", "bdpt", "sppm", "ppm", "radiosity", "pssmlt"];
+    pub const NAMES: [&'static str; 11] = [
+        "raycast",
+        "whitted",
+        "distributed",
+        "path",
+        "light",
+        "bdpt",
+        "sppm",
+        "ppm",
+        "radiosity",
+        "pssmlt",
+        "volpath",
+    ];
 
     /// The integrator's name.
     pub fn name(self) -> &'static str {
@@ -114,7 +129,7 @@ impl IntegratorKind {
 
     /// Whether the pixel samples are jittered (stochastic integrators) or at strata centres.
     fn jitters(self) -> bool {
-        matches!(self, Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity)
+        matches!(self, Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity | Self::Volpath)
     }
 
     /// Whether the integrator traces from the lights and splats onto the film (rendered by
@@ -138,6 +153,7 @@ impl FromStr for IntegratorKind {
             "ppm" => Ok(Self::Ppm),
             "radiosity" => Ok(Self::Radiosity),
             "pssmlt" => Ok(Self::Pssmlt),
+            "volpath" => Ok(Self::Volpath),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -173,6 +189,8 @@ pub struct RenderSettings {
     pub radiosity: radiosity::RadiosityOptions,
     /// The pssmlt integrator's options (chains, mutations, steps, bootstrap).
     pub mlt: pssmlt::MltOptions,
+    /// A homogeneous fog filling the scene, seen by `volpath` (the others ignore it).
+    pub fog: Option<medium::Medium>,
 }
 
 impl Default for RenderSettings {
@@ -190,6 +208,7 @@ impl Default for RenderSettings {
             photons: sppm::PhotonSettings::default(),
             radiosity: radiosity::RadiosityOptions::default(),
             mlt: pssmlt::MltOptions::default(),
+            fog: None,
         }
     }
 }
@@ -585,7 +604,8 @@ pub fn radiance(
         | IntegratorKind::Sppm
         | IntegratorKind::Ppm
         | IntegratorKind::Radiosity
-        | IntegratorKind::Pssmlt => {
+        | IntegratorKind::Pssmlt
+        | IntegratorKind::Volpath => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -619,6 +639,9 @@ fn render_pixel(
             Some(sol) => {
                 *rays += 1;
                 scene.intersect(&ray).map_or(scene.background, |hit| sol.radiance(&hit))
+            }
+            None if s.integrator == IntegratorKind::Volpath => {
+                volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
             }
             None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
         };

@@ -8,6 +8,7 @@ use glam::Vec3;
 use serde::Deserialize;
 
 use super::film::Display;
+use super::medium::Medium;
 use super::sppm::PhotonSettings;
 use super::{Camera, IntegratorKind, RenderSettings};
 use crate::scene::World;
@@ -37,8 +38,9 @@ pub struct RenderOptions {
     pub max_depth: Option<u32>,
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
-    /// mapping), radiosity (hierarchical radiosity) or pssmlt (Metropolis light transport)
-    /// (default: the scene's, else path).
+    /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
+    /// volpath (volumetric path tracing through a fog, --fog-*) (default: the scene's, else
+    /// path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -67,6 +69,15 @@ pub struct RenderOptions {
     /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
     #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
     pub clamp_indirect: Option<f32>,
+    /// volpath: a homogeneous fog's absorption coefficient R,G,B, 1/m (default 0,0,0).
+    #[arg(long = "fog-sigma-a", value_parser = crate::scene::parse_point, value_name = "R,G,B", allow_hyphen_values = true)]
+    pub fog_sigma_a: Option<[f32; 3]>,
+    /// volpath: the fog's scattering coefficient R,G,B, 1/m (default 0,0,0).
+    #[arg(long = "fog-sigma-s", value_parser = crate::scene::parse_point, value_name = "R,G,B", allow_hyphen_values = true)]
+    pub fog_sigma_s: Option<[f32; 3]>,
+    /// volpath: the fog's Henyey-Greenstein asymmetry g in (-1, 1) (default 0, isotropic).
+    #[arg(long = "fog-g", allow_hyphen_values = true)]
+    pub fog_g: Option<f32>,
     /// sppm and ppm: iterations, each one camera sample a pixel and one photon pass (default:
     /// the samples per pixel, as pbrt-v4 reads its pixel samples).
     #[arg(long)]
@@ -116,6 +127,28 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
     let photons =
         PhotonSettings { initial_radius_m: options.sppm_radius_m, photons_per_iteration: options.photons };
     photons.validate().map_err(|e| anyhow!("{e}"))?;
+    // The fog: the flags (volpath only), else the scene's `[render] fog_*` (which the other
+    // integrators ignore).
+    let flags = options.fog_sigma_a.is_some() || options.fog_sigma_s.is_some() || options.fog_g.is_some();
+    if flags && integrator != IntegratorKind::Volpath {
+        anyhow::bail!(
+            "--fog-sigma-a, --fog-sigma-s and --fog-g apply to --integrator volpath only, not {integrator_name}"
+        );
+    }
+    let sigma_a = options.fog_sigma_a.or(desc.fog_sigma_a);
+    let sigma_s = options.fog_sigma_s.or(desc.fog_sigma_s);
+    let g = options.fog_g.or(desc.fog_g);
+    let fog = if sigma_a.is_some() || sigma_s.is_some() || g.is_some() {
+        let fog = Medium {
+            sigma_a_per_m: Vec3::from(sigma_a.unwrap_or([0.0; 3])),
+            sigma_s_per_m: Vec3::from(sigma_s.unwrap_or([0.0; 3])),
+            g: g.unwrap_or(0.0),
+        };
+        fog.validate().map_err(|e| anyhow!("{e}"))?;
+        Some(fog)
+    } else {
+        None
+    };
     let s = RenderSettings {
         width: options.width.or(desc.width).unwrap_or(DEFAULT_SIZE.0),
         height: options.height.or(desc.height).unwrap_or(DEFAULT_SIZE.1),
@@ -129,6 +162,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         photons,
         radiosity: options.radiosity.clone(),
         mlt: options.mlt.clone(),
+        fog,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)

@@ -1,0 +1,175 @@
+//! Volumetric path tracing in a homogeneous fog (`--integrator volpath`): the path tracer of
+//! [`super::path`] with free flights between surfaces. A flight ends in the medium with the
+//! density of [`Medium::sample_flight`]; there the path takes a light sample (weighted by
+//! the phase function and the Beer-Lambert transmittance to the light) and a phase-function
+//! sample, joined by MIS with the power heuristic as at surfaces; light samples from surfaces
+//! are attenuated by the transmittance too (pbrt-v4's `VolPathIntegrator`, sec. 14.2, for a
+//! homogeneous medium, where the transmittance is closed-form and needs no ratio tracking).
+
+use glam::{Vec2, Vec3};
+
+use super::medium::Medium;
+use super::path::{RR_START_DEPTH, emitted};
+use super::sampler::Sampler;
+use super::{Bsdf, Frame, RenderScene, power_heuristic};
+use crate::core::{Hit, Ray};
+
+/// The radiance along camera ray `ray` through `fog` (`None`: the plain path tracer's
+/// estimate), with at most `max_depth` bounces, scatterings in the medium included.
+pub fn li(
+    scene: &RenderScene,
+    mut ray: Ray,
+    max_depth: u32,
+    sampler: &mut Sampler,
+    rays: &mut u64,
+    fog: Option<&Medium>,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut specular = true;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_point = ray.origin;
+    let mut depth = 0u32;
+    loop {
+        *rays += 1;
+        let hit = scene.intersect(&ray);
+        if let Some(m) = fog {
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            let flight = m.sample_flight(t_max, sampler.get_1d(), sampler.get_1d());
+            beta *= flight.weight;
+            if flight.scattered {
+                if depth >= max_depth || beta == Vec3::ZERO {
+                    break;
+                }
+                sampler.start_bounce(depth);
+                let (u_light, u_phase) = (sampler.get_2d(), sampler.get_2d());
+                depth += 1;
+                let p = ray.at(flight.t);
+                l += beta * light_in_medium(scene, m, p, ray.dir, u_light, rays);
+                let wi = m.sample_phase(ray.dir, u_phase);
+                specular = false;
+                prev_pdf = m.phase(ray.dir, wi);
+                prev_point = p;
+                ray = Ray::new(p, wi);
+                if !roulette(&mut beta, depth, sampler) {
+                    break;
+                }
+                continue;
+            }
+        }
+        let Some(hit) = hit else {
+            l += beta * scene.background;
+            break;
+        };
+        l += emitted(scene, &hit, ray.dir, beta, (specular, prev_pdf, prev_point));
+        if depth >= max_depth {
+            break;
+        }
+        sampler.start_bounce(depth);
+        let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
+        depth += 1;
+        let bsdf = scene.surfaces[hit.surface as usize].bsdf;
+        let frame = Frame::new(hit.normal);
+        let wo = frame.to_local(-ray.dir);
+        if !bsdf.is_delta() {
+            l += beta * light_at_surface(scene, fog, &hit, frame, wo, bsdf, u_light, rays);
+        }
+        let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
+        let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
+            break;
+        };
+        beta *= s.weight();
+        specular = s.specular;
+        prev_pdf = s.pdf;
+        prev_point = hit.point;
+        ray = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
+        if !roulette(&mut beta, depth, sampler) {
+            break;
+        }
+    }
+    l
+}
+
+/// Russian roulette from [`RR_START_DEPTH`] on (survival max(beta), at most 1); false when
+/// the path ends.
+#[inline]
+fn roulette(beta: &mut Vec3, depth: u32, sampler: &mut Sampler) -> bool {
+    if depth < RR_START_DEPTH {
+        return *beta != Vec3::ZERO;
+    }
+    let q = beta.max_element().min(1.0);
+    if q <= 0.0 || sampler.get_1d() >= q {
+        return false;
+    }
+    *beta /= q;
+    true
+}
+
+/// Direct light at a surface vertex: [`super::path::sample_direct`] times the fog's
+/// transmittance over the shadow ray.
+#[allow(clippy::too_many_arguments)]
+fn light_at_surface(
+    scene: &RenderScene,
+    fog: Option<&Medium>,
+    hit: &Hit,
+    frame: Frame,
+    wo: Vec3,
+    bsdf: Bsdf,
+    u: Vec2,
+    rays: &mut u64,
+) -> Vec3 {
+    let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
+        return Vec3::ZERO;
+    };
+    let Some(ls) = scene.lights.lights[index].sample(hit.point, Vec2::new(ux, u.y)) else {
+        return Vec3::ZERO;
+    };
+    let wi = frame.to_local(ls.wi);
+    let f = bsdf.eval(wo, wi) * wi.z.abs();
+    if f == Vec3::ZERO || ls.li == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    if scene.light_blocked(hit, &ls) {
+        return Vec3::ZERO;
+    }
+    let tr = fog.map_or(Vec3::ONE, |m| m.transmittance(ls.distance));
+    if ls.delta {
+        return f * ls.li * tr / pmf;
+    }
+    let light_pdf = ls.pdf * pmf;
+    f * ls.li * tr * (power_heuristic(light_pdf, bsdf.pdf(wo, wi)) / light_pdf)
+}
+
+/// Direct light at a scattering point `p` of the medium, for light travelling along `dir`:
+/// `phase Li T / pdf`, weighted against phase sampling by the power heuristic.
+fn light_in_medium(scene: &RenderScene, m: &Medium, p: Vec3, dir: Vec3, u: Vec2, rays: &mut u64) -> Vec3 {
+    let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
+        return Vec3::ZERO;
+    };
+    let Some(ls) = scene.lights.lights[index].sample(p, Vec2::new(ux, u.y)) else {
+        return Vec3::ZERO;
+    };
+    let phase = m.phase(dir, ls.wi);
+    if phase <= 0.0 || ls.li == Vec3::ZERO {
+        return Vec3::ZERO;
+    }
+    *rays += 1;
+    // A point in the air has no surface to leave: the shadow ray starts at it and stops
+    // short of the light's surface.
+    let to = ls.shadow_point - p;
+    let d = to.length();
+    if d.is_nan() || d <= 0.0 {
+        return Vec3::ZERO;
+    }
+    let shadow = Ray::segment(p, to / d, d - (1e-4 * d).max(1e-5));
+    if scene.accel.occluded(&shadow) {
+        return Vec3::ZERO;
+    }
+    let tr = m.transmittance(ls.distance);
+    if ls.delta {
+        return phase * ls.li * tr / pmf;
+    }
+    let light_pdf = ls.pdf * pmf;
+    phase * ls.li * tr * (power_heuristic(light_pdf, phase) / light_pdf)
+}
