@@ -165,10 +165,86 @@ fn bad_inputs_give_one_line_errors() {
     assert_clean_error(&with(&["--integrator", "ppm", "--photons", "0"]), &["--photons 0"]);
     assert_clean_error(&with(&["--integrator", "sppm", "--iterations", "0"]), &["--iterations 0"]);
     assert_clean_error(&with(&["--photons", "100"]), &["--photons", "sppm"]);
+    // The fog: its flags belong to volpath; bad coefficients and asymmetries are named.
+    assert_clean_error(&with(&["--fog-g", "0.5"]), &["--fog-g applies to --integrator volpath, not path"]);
+    assert_clean_error(&with(&["--integrator", "volpath", "--fog-g", "1"]), &["asymmetry g 1"]);
+    assert_clean_error(
+        &with(&["--integrator", "volpath", "--fog-sigma-s", "-1,0,0"]),
+        &["fog scattering -1,0,0"],
+    );
+    assert_clean_error(&with(&["--integrator", "volpath", "--fog-sigma-a", "0,1e9,0"]), &["fog absorption"]);
+    assert_clean_error(&with(&["--integrator", "volpath", "--fog-sigma-a", "nan,0,0"]), &["--fog-sigma-a"]);
+    // A flag of one integrator given with another is refused by name, even at its default
+    // value: it would do nothing, and a silent no-op hides a wrong --integrator.
+    assert_clean_error(
+        &with(&["--mlt-chains", "10"]),
+        &["--mlt-chains applies to --integrator pssmlt, not path"],
+    );
+    for flag in [
+        "--mlt-chains",
+        "--mlt-mutations-per-pixel",
+        "--mlt-large-step-probability",
+        "--mlt-sigma",
+        "--mlt-bootstrap",
+    ] {
+        assert_clean_error(&with(&["--integrator", "bdpt", flag, "1"]), &[flag, "pssmlt, not bdpt"]);
+    }
+    assert_clean_error(
+        &with(&["--integrator", "path", "--mlt-chains", "1000"]),
+        &["--mlt-chains", "not path"],
+    );
+    for (flag, integrator) in
+        [("--iterations", "light"), ("--photons", "pssmlt"), ("--sppm-radius", "radiosity")]
+    {
+        assert_clean_error(
+            &with(&["--integrator", integrator, flag, "2"]),
+            &[&format!("{flag} applies to --integrator sppm or ppm, not {integrator}")],
+        );
+    }
+    for (flag, value) in [
+        ("--radiosity-method", "matrix"),
+        ("--radiosity-patches", "64"),
+        ("--radiosity-patch-area", "0.1"),
+        ("--radiosity-max-patches", "1000"),
+        ("--radiosity-refine", "0.01"),
+        ("--radiosity-tolerance", "0.001"),
+        ("--radiosity-samples", "4"),
+    ] {
+        assert_clean_error(
+            &with(&["--integrator", "sppm", flag, value]),
+            &[&format!("{flag} applies to --integrator radiosity, not sppm")],
+        );
+    }
+    // The integrator may come from the scene file's [render] table as well.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("room.obj"), format!("mtllib room.mtl\n{ROOM_OBJ}")).unwrap();
+    std::fs::write(dir.path().join("room.mtl"), ROOM_MTL).unwrap();
+    std::fs::write(
+        dir.path().join("scene.toml"),
+        "obj = \"room.obj\"\n[render]\nintegrator = \"bdpt\"\nwidth = 8\nheight = 8\nspp = 1\n",
+    )
+    .unwrap();
+    let (ok, _, err) = propsim_in(dir.path(), &["render", "scene.toml", "--mlt-sigma", "0.1"]);
+    common::check_one_line_error(&["render", "scene.toml"], ok, &err, &["--mlt-sigma", "pssmlt, not bdpt"]);
     assert_clean_error(&with(&["-o", "picture.jpg"]), &["picture.jpg", ".png"]);
     assert_clean_error(&with(&["-o", "picture"]), &["picture", "extension"]);
     assert_clean_error(&["render", "missing.toml"], &["missing.toml"]);
     assert_clean_error(&["render", "builtin:nope"], &["nope"]);
+}
+
+#[test]
+fn each_integrators_own_flags_are_accepted_with_it() {
+    let dir = tempfile::tempdir().unwrap();
+    let small = ["--width", "8", "--height", "8", "--spp", "1", "--max-depth", "2", "-o", "r.png"];
+    for extra in [
+        &["--integrator", "pssmlt", "--mlt-chains", "4", "--mlt-bootstrap", "100", "--mlt-sigma", "0.05"][..],
+        &["--integrator", "ppm", "--iterations", "2", "--photons", "100", "--sppm-radius", "0.05"][..],
+        &["--integrator", "radiosity", "--radiosity-patches", "64", "--radiosity-samples", "1"][..],
+    ] {
+        let args: Vec<&str> = ["render"].iter().chain(&small).chain(extra).copied().collect();
+        let (ok, _, err) = propsim_in(dir.path(), &args);
+        assert!(ok, "{args:?}: {err}");
+    }
 }
 
 #[test]

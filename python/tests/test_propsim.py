@@ -197,6 +197,10 @@ def test_unknown_options_and_bad_values_are_the_cli_errors():
         tiny_render(threads=0)
     with pytest.raises(propsim.PropsimError, match="not both"):
         tiny_render(out="x", output="y.png")
+    with pytest.raises(propsim.PropsimError, match="--mlt-chains applies to --integrator pssmlt, not bdpt"):
+        tiny_render(integrator="bdpt", mlt_chains=10)
+    with pytest.raises(propsim.PropsimError, match="--radiosity-patches applies to --integrator radiosity"):
+        tiny_render(radiosity_patches=64)
     assert issubclass(propsim.PropsimError, ValueError)
 
 

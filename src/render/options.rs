@@ -91,10 +91,10 @@ pub struct RenderOptions {
     pub sppm_radius_m: Option<f32>,
     /// The radiosity integrator's options.
     #[command(flatten)]
-    pub radiosity: super::radiosity::RadiosityOptions,
+    pub radiosity: super::radiosity::RadiosityFlags,
     /// The pssmlt integrator's options.
     #[command(flatten)]
-    pub mlt: super::pssmlt::MltOptions,
+    pub mlt: super::pssmlt::MltFlags,
 }
 
 /// The settings the scene suggests, overridden by the flags.
@@ -111,30 +111,15 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
     let exposure_ev = options.exposure_ev.or(desc.exposure_ev).unwrap_or(d.display.exposure_ev);
     let display = Display { exposure_ev, tone_map };
     display.validate().map_err(|e| anyhow!("--exposure: {e}"))?;
-    let photon_mapping = matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm);
-    for (flag, given) in [
-        ("--iterations", options.iterations.is_some()),
-        ("--photons", options.photons.is_some()),
-        ("--sppm-radius", options.sppm_radius_m.is_some()),
-    ] {
-        if given && !photon_mapping {
-            anyhow::bail!("{flag} applies to --integrator sppm and ppm only, not {integrator_name}");
-        }
-    }
+    refuse_foreign_flags(options, integrator, &integrator_name)?;
     if options.iterations == Some(0) {
         anyhow::bail!("--iterations 0: must be between 1 and {}", super::MAX_SPP);
     }
     let photons =
         PhotonSettings { initial_radius_m: options.sppm_radius_m, photons_per_iteration: options.photons };
     photons.validate().map_err(|e| anyhow!("{e}"))?;
-    // The fog: the flags (volpath only), else the scene's `[render] fog_*` (which the other
-    // integrators ignore).
-    let flags = options.fog_sigma_a.is_some() || options.fog_sigma_s.is_some() || options.fog_g.is_some();
-    if flags && integrator != IntegratorKind::Volpath {
-        anyhow::bail!(
-            "--fog-sigma-a, --fog-sigma-s and --fog-g apply to --integrator volpath only, not {integrator_name}"
-        );
-    }
+    // The fog: the flags (volpath only: refused above with the others), else the scene's
+    // `[render] fog_*` (which the other integrators ignore).
     let sigma_a = options.fog_sigma_a.or(desc.fog_sigma_a);
     let sigma_s = options.fog_sigma_s.or(desc.fog_sigma_s);
     let g = options.fog_g.or(desc.fog_g);
@@ -160,12 +145,52 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         display,
         clamp_indirect: options.clamp_indirect,
         photons,
-        radiosity: options.radiosity.clone(),
-        mlt: options.mlt.clone(),
+        radiosity: options.radiosity.options(),
+        mlt: options.mlt.options(),
         fog,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
+}
+
+/// Refuses a flag of one integrator given with another (`--mlt-chains` with `path`): it
+/// would have no effect, and a silent no-op hides a typo in `--integrator`. The error is one
+/// line naming the flag and both integrators.
+fn refuse_foreign_flags(
+    options: &RenderOptions,
+    integrator: IntegratorKind,
+    name: &str,
+) -> anyhow::Result<()> {
+    let photon_flags = [
+        ("--iterations", options.iterations.is_some()),
+        ("--photons", options.photons.is_some()),
+        ("--sppm-radius", options.sppm_radius_m.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect();
+    let fog_flags = [
+        ("--fog-sigma-a", options.fog_sigma_a.is_some()),
+        ("--fog-sigma-s", options.fog_sigma_s.is_some()),
+        ("--fog-g", options.fog_g.is_some()),
+    ]
+    .into_iter()
+    .filter_map(|(flag, given)| given.then_some(flag))
+    .collect();
+    let owners: [(Vec<&str>, bool, &str); 4] = [
+        (photon_flags, matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm), "sppm or ppm"),
+        (options.mlt.given(), integrator == IntegratorKind::Pssmlt, "pssmlt"),
+        (options.radiosity.given(), integrator == IntegratorKind::Radiosity, "radiosity"),
+        (fog_flags, integrator == IntegratorKind::Volpath, "volpath"),
+    ];
+    for (flags, applies, owner) in owners {
+        if let Some(flag) = flags.first()
+            && !applies
+        {
+            anyhow::bail!("{flag} applies to --integrator {owner}, not {name}");
+        }
+    }
+    Ok(())
 }
 
 /// The camera: the scene's `[camera]` or the automatic one ([`super::auto_camera`]:

@@ -54,28 +54,78 @@ const LIGHT_STREAM: usize = 1;
 const CONNECT_STREAM: usize = 2;
 const STREAMS: usize = 3;
 
-/// The pssmlt integrator's options (flags `--mlt-*`); pbrt-v4's defaults except the chains'
-/// length, which follows the samples per pixel.
-#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq)]
+/// The pssmlt integrator's options (flags `--mlt-*`, given as [`MltFlags`]); pbrt-v4's
+/// defaults except the chains' length, which follows the samples per pixel.
+#[derive(Deserialize, Debug, Clone, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct MltOptions {
-    /// pssmlt: independent Markov chains (the work is split over them; more chains, less
-    /// start-up correlation but more start-up cost).
-    #[arg(long = "mlt-chains", default_value_t = 1000)]
+    /// Independent Markov chains (the work is split over them; more chains, less start-up
+    /// correlation but more start-up cost).
     pub chains: u32,
+    /// Mutations per pixel, in total over the chains (`None`: the samples per pixel).
+    pub mutations_per_pixel: Option<u32>,
+    /// Probability of a large step (a fresh, independent primary sample).
+    pub large_step_probability: f32,
+    /// Standard deviation of a small step of each primary-sample number.
+    pub sigma: f32,
+    /// Bootstrap samples per path depth, which estimate the image's normalisation and choose
+    /// the chains' starts.
+    pub bootstrap: u32,
+}
+
+/// The `--mlt-*` flags as a user gives them: `None` is a flag not given (its
+/// [`MltOptions::default`] value then), so that a flag given with another integrator can be
+/// refused by name ([`MltFlags::given`]) rather than silently ignored.
+#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct MltFlags {
+    /// pssmlt: independent Markov chains (the work is split over them; more chains, less
+    /// start-up correlation but more start-up cost) (default: 1000).
+    #[arg(long = "mlt-chains")]
+    pub chains: Option<u32>,
     /// pssmlt: mutations per pixel, in total over the chains (default: the samples per pixel).
     #[arg(long = "mlt-mutations-per-pixel", value_name = "N")]
     pub mutations_per_pixel: Option<u32>,
-    /// pssmlt: probability of a large step (a fresh, independent primary sample).
-    #[arg(long = "mlt-large-step-probability", default_value_t = 0.3)]
-    pub large_step_probability: f32,
-    /// pssmlt: standard deviation of a small step of each primary-sample number.
-    #[arg(long = "mlt-sigma", default_value_t = 0.01)]
-    pub sigma: f32,
+    /// pssmlt: probability of a large step (a fresh, independent primary sample) (default:
+    /// 0.3).
+    #[arg(long = "mlt-large-step-probability")]
+    pub large_step_probability: Option<f32>,
+    /// pssmlt: standard deviation of a small step of each primary-sample number (default:
+    /// 0.01).
+    #[arg(long = "mlt-sigma")]
+    pub sigma: Option<f32>,
     /// pssmlt: bootstrap samples per path depth, which estimate the image's normalisation
-    /// and choose the chains' starts.
-    #[arg(long = "mlt-bootstrap", default_value_t = 100_000)]
-    pub bootstrap: u32,
+    /// and choose the chains' starts (default: 100000).
+    #[arg(long = "mlt-bootstrap")]
+    pub bootstrap: Option<u32>,
+}
+
+impl MltFlags {
+    /// The flags given, in the order of `--help`.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--mlt-chains", self.chains.is_some()),
+            ("--mlt-mutations-per-pixel", self.mutations_per_pixel.is_some()),
+            ("--mlt-large-step-probability", self.large_step_probability.is_some()),
+            ("--mlt-sigma", self.sigma.is_some()),
+            ("--mlt-bootstrap", self.bootstrap.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
+    }
+
+    /// The options: each flag given, else its default.
+    pub fn options(&self) -> MltOptions {
+        let d = MltOptions::default();
+        MltOptions {
+            chains: self.chains.unwrap_or(d.chains),
+            mutations_per_pixel: self.mutations_per_pixel.or(d.mutations_per_pixel),
+            large_step_probability: self.large_step_probability.unwrap_or(d.large_step_probability),
+            sigma: self.sigma.unwrap_or(d.sigma),
+            bootstrap: self.bootstrap.unwrap_or(d.bootstrap),
+        }
+    }
 }
 
 impl Default for MltOptions {

@@ -46,37 +46,96 @@ pub enum Method {
     Matrix,
 }
 
-/// The radiosity integrator's options (flags `--radiosity-*`).
-#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq)]
+/// The radiosity integrator's options (flags `--radiosity-*`, given as [`RadiosityFlags`]).
+#[derive(Deserialize, Debug, Clone, PartialEq)]
 #[serde(default, deny_unknown_fields)]
 pub struct RadiosityOptions {
-    /// Radiosity linking: hierarchical (Hanrahan et al. 1991, BF refinement) or matrix (every
-    /// pair of finest patches).
-    #[arg(long = "radiosity-method", value_enum, default_value_t = Method::Hierarchical)]
+    /// Linking: hierarchical (Hanrahan et al. 1991, BF refinement) or matrix (every pair of
+    /// finest patches).
     pub method: Method,
-    /// Radiosity: target number of finest patches; the finest patch area is the meshes' total
-    /// area over this.
-    #[arg(long = "radiosity-patches", default_value_t = 4096)]
+    /// Target number of finest patches; the finest patch area is the meshes' total area over
+    /// this.
     pub patches: u32,
+    /// Finest patch area, m^2 (overrides `patches`).
+    pub patch_area_m2: Option<f32>,
+    /// Most patches (elements of every level) the solution may create; needing more is an
+    /// error.
+    pub max_patches: u32,
+    /// BF refinement threshold, as a fraction of the scene's mean radiance (its furnace
+    /// estimate): a link carrying more radiance than this is split.
+    pub refine: f32,
+    /// Convergence tolerance of the iterative solution, as a fraction of the scene's mean
+    /// radiance (its furnace estimate).
+    pub tolerance: f32,
+    /// Points (and shadow rays) per form factor on the receiver, rounded down to a square.
+    pub samples: u32,
+}
+
+/// The `--radiosity-*` flags as a user gives them: `None` is a flag not given (its
+/// [`RadiosityOptions::default`] value then), so that a flag given with another integrator
+/// can be refused by name ([`RadiosityFlags::given`]) rather than silently ignored.
+#[derive(clap::Args, Deserialize, Debug, Clone, PartialEq, Default)]
+#[serde(default, deny_unknown_fields)]
+pub struct RadiosityFlags {
+    /// Radiosity linking: hierarchical (Hanrahan et al. 1991, BF refinement) or matrix (every
+    /// pair of finest patches) (default: hierarchical).
+    #[arg(long = "radiosity-method", value_enum)]
+    pub method: Option<Method>,
+    /// Radiosity: target number of finest patches; the finest patch area is the meshes' total
+    /// area over this (default: 4096).
+    #[arg(long = "radiosity-patches")]
+    pub patches: Option<u32>,
     /// Radiosity: finest patch area, m^2 (overrides --radiosity-patches).
     #[arg(long = "radiosity-patch-area", value_name = "M2")]
     pub patch_area_m2: Option<f32>,
     /// Radiosity: most patches (elements of every level) the solution may create; needing
-    /// more is an error.
-    #[arg(long = "radiosity-max-patches", default_value_t = 200_000)]
-    pub max_patches: u32,
+    /// more is an error (default: 200000).
+    #[arg(long = "radiosity-max-patches")]
+    pub max_patches: Option<u32>,
     /// Radiosity: BF refinement threshold, as a fraction of the scene's mean radiance (its
-    /// furnace estimate): a link carrying more radiance than this is split.
-    #[arg(long = "radiosity-refine", default_value_t = 1.0e-3)]
-    pub refine: f32,
+    /// furnace estimate): a link carrying more radiance than this is split (default: 0.001).
+    #[arg(long = "radiosity-refine")]
+    pub refine: Option<f32>,
     /// Radiosity: convergence tolerance of the iterative solution, as a fraction of the
-    /// scene's mean radiance (its furnace estimate).
-    #[arg(long = "radiosity-tolerance", default_value_t = 1.0e-4)]
-    pub tolerance: f32,
+    /// scene's mean radiance (its furnace estimate) (default: 0.0001).
+    #[arg(long = "radiosity-tolerance")]
+    pub tolerance: Option<f32>,
     /// Radiosity: points (and shadow rays) per form factor on the receiver, rounded down to a
-    /// square.
-    #[arg(long = "radiosity-samples", default_value_t = 16)]
-    pub samples: u32,
+    /// square (default: 16).
+    #[arg(long = "radiosity-samples")]
+    pub samples: Option<u32>,
+}
+
+impl RadiosityFlags {
+    /// The flags given, in the order of `--help`.
+    pub fn given(&self) -> Vec<&'static str> {
+        [
+            ("--radiosity-method", self.method.is_some()),
+            ("--radiosity-patches", self.patches.is_some()),
+            ("--radiosity-patch-area", self.patch_area_m2.is_some()),
+            ("--radiosity-max-patches", self.max_patches.is_some()),
+            ("--radiosity-refine", self.refine.is_some()),
+            ("--radiosity-tolerance", self.tolerance.is_some()),
+            ("--radiosity-samples", self.samples.is_some()),
+        ]
+        .into_iter()
+        .filter_map(|(flag, given)| given.then_some(flag))
+        .collect()
+    }
+
+    /// The options: each flag given, else its default.
+    pub fn options(&self) -> RadiosityOptions {
+        let d = RadiosityOptions::default();
+        RadiosityOptions {
+            method: self.method.unwrap_or(d.method),
+            patches: self.patches.unwrap_or(d.patches),
+            patch_area_m2: self.patch_area_m2.or(d.patch_area_m2),
+            max_patches: self.max_patches.unwrap_or(d.max_patches),
+            refine: self.refine.unwrap_or(d.refine),
+            tolerance: self.tolerance.unwrap_or(d.tolerance),
+            samples: self.samples.unwrap_or(d.samples),
+        }
+    }
 }
 
 impl Default for RadiosityOptions {
@@ -255,15 +314,26 @@ mod tests {
     #[derive(Parser)]
     struct Cmd {
         #[command(flatten)]
-        options: RadiosityOptions,
+        flags: RadiosityFlags,
     }
 
     #[test]
     fn the_command_line_and_the_library_share_one_set_of_defaults() {
         let parsed = Cmd::try_parse_from(["render"]).expect("no flags parse");
-        assert_eq!(parsed.options, RadiosityOptions::default());
+        assert_eq!(parsed.flags, RadiosityFlags::default());
+        assert!(parsed.flags.given().is_empty());
+        assert_eq!(parsed.flags.options(), RadiosityOptions::default());
         let from_json: RadiosityOptions = serde_json::from_str("{}").expect("empty options parse");
         assert_eq!(from_json, RadiosityOptions::default());
         assert!(RadiosityOptions::default().validate().is_ok());
+        let parsed =
+            Cmd::try_parse_from(["render", "--radiosity-samples", "4", "--radiosity-method", "matrix"])
+                .expect("flags parse");
+        assert_eq!(parsed.flags.given(), ["--radiosity-method", "--radiosity-samples"]);
+        let o = parsed.flags.options();
+        assert_eq!(
+            (o.samples, o.method, o.patches),
+            (4, Method::Matrix, RadiosityOptions::default().patches)
+        );
     }
 }
