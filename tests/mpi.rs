@@ -226,6 +226,32 @@ fn mpi_light_transport_integrators_are_byte_identical_for_1_2_and_3_ranks() {
 }
 
 #[test]
+fn mpi_radiosity_fields_fog_and_bent_rays_are_byte_identical_for_1_2_and_3_ranks() {
+    // Radiosity (every rank solves the same system), signed distance fields (path traced),
+    // the fog (volpath), and the acoustic rays bent at the showcase's corner edge.
+    for (name, scene, integrator, extra) in [
+        (
+            "radiosity",
+            "rooms/cornell_radiosity/scene.toml",
+            "radiosity",
+            &["--radiosity-patch-area", "0.01"][..],
+        ),
+        ("sdf", "rooms/sdf/scene.toml", "path", &[][..]),
+        ("volpath", "rooms/fog/scene.toml", "volpath", &[][..]),
+    ] {
+        let scene = format!("{MANIFEST_DIR}/{scene}");
+        let mut args = vec!["render", &scene, "--integrator", integrator, "-o", "out/render.exr"];
+        args.extend(["--width", "60", "--height", "40", "--spp", "4"]);
+        args.extend(extra);
+        same_outputs_for_any_rank_count(&format!("render-{name}"), &args);
+    }
+    same_outputs_for_any_rank_count(
+        "acoustic-bent",
+        &["acoustic", "builtin:showcase", "--rays", "20000", "--out", "out"],
+    );
+}
+
+#[test]
 fn mpi_acoustic_is_byte_identical_for_1_2_and_3_ranks() {
     // 20,000 rays: 20 blocks of 1024, the last one short; with the directional outputs
     // (their direction histograms are summed across ranks like the energy histograms).
