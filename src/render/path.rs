@@ -45,6 +45,21 @@ pub struct Vertex<'h> {
 /// 0.01259 to 0.01236 against an independent number for the choice.
 #[inline]
 pub fn sample_direct(scene: &RenderScene, v: &Vertex, u: Vec2, rays: &mut u64, mis: bool) -> Vec3 {
+    sample_direct_through(scene, v, u, rays, mis, |_| Vec3::ONE)
+}
+
+/// [`sample_direct`] with the light attenuated by `transmittance(distance_m)` on its way to
+/// the vertex (a fog's, in [`super::volpath`]; one for the path tracer, where the products
+/// are then exactly those of no attenuation).
+#[inline]
+pub fn sample_direct_through(
+    scene: &RenderScene,
+    v: &Vertex,
+    u: Vec2,
+    rays: &mut u64,
+    mis: bool,
+    transmittance: impl Fn(f32) -> Vec3,
+) -> Vec3 {
     let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
         return Vec3::ZERO;
     };
@@ -60,12 +75,13 @@ pub fn sample_direct(scene: &RenderScene, v: &Vertex, u: Vec2, rays: &mut u64, m
     if scene.light_blocked(v.hit, &ls) {
         return Vec3::ZERO;
     }
+    let li = ls.li * transmittance(ls.distance);
     if ls.delta {
-        return f * ls.li / pmf;
+        return f * li / pmf;
     }
     let light_pdf = ls.pdf * pmf;
     let w = if mis { power_heuristic(light_pdf, v.bsdf.pdf(v.wo, wi)) } else { 1.0 };
-    f * ls.li * (w / light_pdf)
+    f * li * (w / light_pdf)
 }
 
 /// The emitted radiance a path of throughput `beta` picks up at `hit`, reached along `dir`:

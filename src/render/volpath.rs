@@ -9,10 +9,10 @@
 use glam::{Vec2, Vec3};
 
 use super::medium::Medium;
-use super::path::{RR_START_DEPTH, emitted};
+use super::path::{RR_START_DEPTH, Vertex, emitted, sample_direct_through};
 use super::sampler::Sampler;
-use super::{Bsdf, Frame, RenderScene, power_heuristic};
-use crate::core::{Hit, Ray};
+use super::{Frame, RenderScene, power_heuristic};
+use crate::core::Ray;
 
 /// The radiance along camera ray `ray` through `fog` (`None`: the plain path tracer's
 /// estimate), with at most `max_depth` bounces, scatterings in the medium included.
@@ -72,7 +72,9 @@ pub fn li(
         let frame = Frame::new(hit.normal);
         let wo = frame.to_local(-ray.dir);
         if !bsdf.is_delta() {
-            l += beta * light_at_surface(scene, fog, &hit, frame, wo, bsdf, u_light, rays);
+            let v = Vertex { hit: &hit, frame, wo, bsdf };
+            let tr = |d: f32| fog.map_or(Vec3::ONE, |m| m.transmittance(d));
+            l += beta * sample_direct_through(scene, &v, u_light, rays, true, tr);
         }
         let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
         let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
@@ -103,42 +105,6 @@ fn roulette(beta: &mut Vec3, depth: u32, sampler: &mut Sampler) -> bool {
     }
     *beta /= q;
     true
-}
-
-/// Direct light at a surface vertex: [`super::path::sample_direct`] times the fog's
-/// transmittance over the shadow ray.
-#[allow(clippy::too_many_arguments)]
-fn light_at_surface(
-    scene: &RenderScene,
-    fog: Option<&Medium>,
-    hit: &Hit,
-    frame: Frame,
-    wo: Vec3,
-    bsdf: Bsdf,
-    u: Vec2,
-    rays: &mut u64,
-) -> Vec3 {
-    let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
-        return Vec3::ZERO;
-    };
-    let Some(ls) = scene.lights.lights[index].sample(hit.point, Vec2::new(ux, u.y)) else {
-        return Vec3::ZERO;
-    };
-    let wi = frame.to_local(ls.wi);
-    let f = bsdf.eval(wo, wi) * wi.z.abs();
-    if f == Vec3::ZERO || ls.li == Vec3::ZERO {
-        return Vec3::ZERO;
-    }
-    *rays += 1;
-    if scene.light_blocked(hit, &ls) {
-        return Vec3::ZERO;
-    }
-    let tr = fog.map_or(Vec3::ONE, |m| m.transmittance(ls.distance));
-    if ls.delta {
-        return f * ls.li * tr / pmf;
-    }
-    let light_pdf = ls.pdf * pmf;
-    f * ls.li * tr * (power_heuristic(light_pdf, bsdf.pdf(wo, wi)) / light_pdf)
 }
 
 /// Direct light at a scattering point `p` of the medium, for light travelling along `dir`:
