@@ -438,7 +438,8 @@ fn volpath_keeps_the_furnace_and_follows_beer_lambert() {
 /// Ray marching against volumetric path tracing: the Cornell box in a thin fog (optical depth
 /// about 0.3 across the box), direct light only (`max_depth` 1, where both estimate exactly
 /// single scattering from the lights plus the surfaces' direct light, and the background is
-/// black). Each 4 x 4-pixel region's mean over 16 independent runs agrees by Welch's t at a
+/// black). Each 4 x 4-pixel region's mean over 16 independent runs (volpath 256 spp,
+/// raymarch 64) agrees by Welch's t at a
 /// Bonferroni-corrected alpha of 0.001 over the 16 regions (|t| < 5.5 at 15 degrees of
 /// freedom, as in tests/shape_emitters.rs). The test can fail: raymarch in twice the
 /// scattering is told apart.
@@ -485,8 +486,8 @@ fn raymarch_and_volpath_agree_in_a_thin_fog() {
             .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
             .fold(0.0f64, f64::max)
     };
-    let reference = pooled(IntegratorKind::Volpath, fog, 64, 1);
-    let marched = pooled(IntegratorKind::Raymarch, fog, 16, 5);
+    let reference = pooled(IntegratorKind::Volpath, fog, 256, 1);
+    let marched = pooled(IntegratorKind::Raymarch, fog, 64, 5);
     let (mut sum_v, mut sum_r, mut var_sum) = (0.0, 0.0, 0.0);
     for (v, r) in reference.iter().zip(&marched) {
         sum_v += v.0;
@@ -503,7 +504,7 @@ fn raymarch_and_volpath_agree_in_a_thin_fog() {
     assert!(t_all < 4.1, "raymarch against volpath: image mean ratio {}, |t| {t_all}", sum_r / sum_v);
     assert!(worst < 5.5, "raymarch against volpath: |t| {worst}");
     let thicker = Medium { sigma_s_per_m: fog.sigma_s_per_m * 2.0, ..fog };
-    let wrong = worst_t(&pooled(IntegratorKind::Raymarch, thicker, 16, 9), &reference);
+    let wrong = worst_t(&pooled(IntegratorKind::Raymarch, thicker, 64, 9), &reference);
     eprintln!("raymarch in twice the scattering against volpath: worst |t| {wrong:.2}");
     assert!(wrong > 5.5, "twice the scattering not told apart: |t| {wrong}");
 }
