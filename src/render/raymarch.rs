@@ -9,12 +9,13 @@
 //! docs/references.md). The march takes points `t_k = (k + u) h` for `t_k < d`, one
 //! uniform `u` per segment (a jittered start), each weighted by the step `h`: stratified
 //! sampling, unbiased for any step (the last, partial stratum is reached with probability
-//! equal to its share of a step), with no banding; the step only sets the variance. At each point one light sample (no MIS: the
-//! march does not sample the phase function). The surface behind is attenuated by
-//! `exp(-sigma_t d)`. What is left out: light scattered more than once in the fog (a march
-//! scatters light from the lights only, not from surfaces or the fog) and the background
-//! scattered by the fog, so raymarch agrees with volpath when single scattering from the
-//! lights dominates (thin fog, black background, or `max_depth` 1).
+//! equal to its share of a step), with no banding; the step only sets the variance. At
+//! each point one light sample (no MIS: the march does not sample the phase function). The
+//! surface behind is attenuated by `exp(-sigma_t d)`. What is left out: light scattered
+//! more than once in the fog (a march scatters light from the lights only, not from
+//! surfaces or the fog) and the background scattered by the fog, so raymarch agrees with
+//! volpath when single scattering from the lights dominates (thin fog, black background,
+//! or `max_depth` 1).
 
 use glam::{Vec2, Vec3};
 
