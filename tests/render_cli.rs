@@ -165,8 +165,13 @@ fn bad_inputs_give_one_line_errors() {
     assert_clean_error(&with(&["--integrator", "ppm", "--photons", "0"]), &["--photons 0"]);
     assert_clean_error(&with(&["--integrator", "sppm", "--iterations", "0"]), &["--iterations 0"]);
     assert_clean_error(&with(&["--photons", "100"]), &["--photons", "sppm"]);
-    // The fog: its flags belong to volpath; bad coefficients and asymmetries are named.
-    assert_clean_error(&with(&["--fog-g", "0.5"]), &["--fog-g applies to --integrator volpath, not path"]);
+    // The fog: its flags belong to volpath and raymarch; bad coefficients and asymmetries are
+    // named.
+    assert_clean_error(
+        &with(&["--fog-g", "0.5"]),
+        &["--fog-g applies to --integrator volpath or raymarch, not path"],
+    );
+    assert_clean_error(&with(&["--integrator", "raymarch", "--fog-g", "-1"]), &["asymmetry g -1"]);
     assert_clean_error(&with(&["--integrator", "volpath", "--fog-g", "1"]), &["asymmetry g 1"]);
     assert_clean_error(
         &with(&["--integrator", "volpath", "--fog-sigma-s", "-1,0,0"]),

@@ -35,6 +35,7 @@ pub mod photon_grid;
 pub mod pssmlt;
 pub mod radiosity;
 pub mod raycast;
+pub mod raymarch;
 pub mod sampler;
 pub mod shape_light;
 pub mod splat;
@@ -104,11 +105,14 @@ pub enum IntegratorKind {
     Pssmlt,
     /// Volumetric path tracing through a homogeneous fog (`RenderSettings::fog`).
     Volpath,
+    /// Ray marching through the same fog ([`raymarch`]): single scattering from the lights
+    /// integrated along each segment, for comparison with `volpath`.
+    Raymarch,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 11] = [
+    pub const NAMES: [&'static str; 12] = [
         "raycast",
         "whitted",
         "distributed",
@@ -120,6 +124,7 @@ impl IntegratorKind {
         "radiosity",
         "pssmlt",
         "volpath",
+        "raymarch",
     ];
 
     /// The integrator's name.
@@ -129,7 +134,10 @@ impl IntegratorKind {
 
     /// Whether the pixel samples are jittered (stochastic integrators) or at strata centres.
     fn jitters(self) -> bool {
-        matches!(self, Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity | Self::Volpath)
+        matches!(
+            self,
+            Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity | Self::Volpath | Self::Raymarch
+        )
     }
 
     /// Whether the integrator traces from the lights and splats onto the film (rendered by
@@ -154,6 +162,7 @@ impl FromStr for IntegratorKind {
             "radiosity" => Ok(Self::Radiosity),
             "pssmlt" => Ok(Self::Pssmlt),
             "volpath" => Ok(Self::Volpath),
+            "raymarch" => Ok(Self::Raymarch),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -189,7 +198,7 @@ pub struct RenderSettings {
     pub radiosity: radiosity::RadiosityOptions,
     /// The pssmlt integrator's options (chains, mutations, steps, bootstrap).
     pub mlt: pssmlt::MltOptions,
-    /// A homogeneous fog filling the scene, seen by `volpath` (the others ignore it).
+    /// A homogeneous fog filling the scene, seen by `volpath` and `raymarch` (the others ignore it).
     pub fog: Option<medium::Medium>,
 }
 
@@ -605,7 +614,8 @@ pub fn radiance(
         | IntegratorKind::Ppm
         | IntegratorKind::Radiosity
         | IntegratorKind::Pssmlt
-        | IntegratorKind::Volpath => {
+        | IntegratorKind::Volpath
+        | IntegratorKind::Raymarch => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -642,6 +652,9 @@ fn render_pixel(
             }
             None if s.integrator == IntegratorKind::Volpath => {
                 volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
+            }
+            None if s.integrator == IntegratorKind::Raymarch => {
+                raymarch::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
             }
             None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
         };

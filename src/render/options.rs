@@ -39,8 +39,8 @@ pub struct RenderOptions {
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
     /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
-    /// volpath (volumetric path tracing through a fog, --fog-*) (default: the scene's, else
-    /// path).
+    /// volpath (volumetric path tracing through a fog, --fog-*) or raymarch (ray marching
+    /// through the fog, single scattering) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.
@@ -69,13 +69,13 @@ pub struct RenderOptions {
     /// removes fireflies at the cost of bias (some light is lost). Default: no clamp.
     #[arg(long = "clamp-indirect", value_name = "LUMINANCE")]
     pub clamp_indirect: Option<f32>,
-    /// volpath: a homogeneous fog's absorption coefficient R,G,B, 1/m (default 0,0,0).
+    /// volpath and raymarch: a homogeneous fog's absorption coefficient R,G,B, 1/m (default 0,0,0).
     #[arg(long = "fog-sigma-a", value_parser = crate::scene::parse_point, value_name = "R,G,B", allow_hyphen_values = true)]
     pub fog_sigma_a: Option<[f32; 3]>,
-    /// volpath: the fog's scattering coefficient R,G,B, 1/m (default 0,0,0).
+    /// volpath and raymarch: the fog's scattering coefficient R,G,B, 1/m (default 0,0,0).
     #[arg(long = "fog-sigma-s", value_parser = crate::scene::parse_point, value_name = "R,G,B", allow_hyphen_values = true)]
     pub fog_sigma_s: Option<[f32; 3]>,
-    /// volpath: the fog's Henyey-Greenstein asymmetry g in (-1, 1) (default 0, isotropic).
+    /// volpath and raymarch: the fog's Henyey-Greenstein asymmetry g in (-1, 1) (default 0, isotropic).
     #[arg(long = "fog-g", allow_hyphen_values = true)]
     pub fog_g: Option<f32>,
     /// sppm and ppm: iterations, each one camera sample a pixel and one photon pass (default:
@@ -118,7 +118,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
     let photons =
         PhotonSettings { initial_radius_m: options.sppm_radius_m, photons_per_iteration: options.photons };
     photons.validate().map_err(|e| anyhow!("{e}"))?;
-    // The fog: the flags (volpath only: refused above with the others), else the scene's
+    // The fog: the flags (volpath and raymarch only: refused above with the others), else the scene's
     // `[render] fog_*` (which the other integrators ignore).
     let sigma_a = options.fog_sigma_a.or(desc.fog_sigma_a);
     let sigma_s = options.fog_sigma_s.or(desc.fog_sigma_s);
@@ -181,7 +181,11 @@ fn refuse_foreign_flags(
         (photon_flags, matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm), "sppm or ppm"),
         (options.mlt.given(), integrator == IntegratorKind::Pssmlt, "pssmlt"),
         (options.radiosity.given(), integrator == IntegratorKind::Radiosity, "radiosity"),
-        (fog_flags, integrator == IntegratorKind::Volpath, "volpath"),
+        (
+            fog_flags,
+            matches!(integrator, IntegratorKind::Volpath | IntegratorKind::Raymarch),
+            "volpath or raymarch",
+        ),
     ];
     for (flags, applies, owner) in owners {
         if let Some(flag) = flags.first()

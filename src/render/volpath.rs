@@ -45,7 +45,7 @@ pub fn li(
                 let (u_light, u_phase) = (sampler.get_2d(), sampler.get_2d());
                 depth += 1;
                 let p = ray.at(flight.t);
-                l += beta * light_in_medium(scene, m, p, ray.dir, u_light, rays);
+                l += beta * light_in_medium(scene, m, p, ray.dir, u_light, true, rays);
                 let wi = m.sample_phase(ray.dir, u_phase);
                 specular = false;
                 prev_pdf = m.phase(ray.dir, wi);
@@ -95,7 +95,7 @@ pub fn li(
 /// Russian roulette from [`RR_START_DEPTH`] on (survival max(beta), at most 1); false when
 /// the path ends.
 #[inline]
-fn roulette(beta: &mut Vec3, depth: u32, sampler: &mut Sampler) -> bool {
+pub(super) fn roulette(beta: &mut Vec3, depth: u32, sampler: &mut Sampler) -> bool {
     if depth < RR_START_DEPTH {
         return *beta != Vec3::ZERO;
     }
@@ -108,8 +108,18 @@ fn roulette(beta: &mut Vec3, depth: u32, sampler: &mut Sampler) -> bool {
 }
 
 /// Direct light at a scattering point `p` of the medium, for light travelling along `dir`:
-/// `phase Li T / pdf`, weighted against phase sampling by the power heuristic.
-fn light_in_medium(scene: &RenderScene, m: &Medium, p: Vec3, dir: Vec3, u: Vec2, rays: &mut u64) -> Vec3 {
+/// `phase Li T / pdf`, weighted against phase sampling by the power heuristic when `mis`
+/// (volpath samples the phase function too; raymarch does not, so its weight is 1).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn light_in_medium(
+    scene: &RenderScene,
+    m: &Medium,
+    p: Vec3,
+    dir: Vec3,
+    u: Vec2,
+    mis: bool,
+    rays: &mut u64,
+) -> Vec3 {
     let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
         return Vec3::ZERO;
     };
@@ -137,5 +147,6 @@ fn light_in_medium(scene: &RenderScene, m: &Medium, p: Vec3, dir: Vec3, u: Vec2,
         return phase * ls.li * tr / pmf;
     }
     let light_pdf = ls.pdf * pmf;
-    phase * ls.li * tr * (power_heuristic(light_pdf, phase) / light_pdf)
+    let weight = if mis { power_heuristic(light_pdf, phase) } else { 1.0 };
+    phase * ls.li * tr * (weight / light_pdf)
 }

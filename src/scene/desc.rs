@@ -106,7 +106,7 @@ pub struct RenderDesc {
     pub exposure_ev: Option<f32>,
     /// PNG tone map: "aces" (default), "reinhard" or "none".
     pub tone_map: Option<String>,
-    /// A homogeneous fog for `volpath`: absorption coefficient per RGB channel, 1/m.
+    /// A homogeneous fog for `volpath` and `raymarch`: absorption coefficient per RGB channel, 1/m.
     pub fog_sigma_a: Option<Point3>,
     /// The fog's scattering coefficient per RGB channel, 1/m.
     pub fog_sigma_s: Option<Point3>,

@@ -1,0 +1,139 @@
+//! Volumetric ray marching in a homogeneous fog (`--integrator raymarch`), for comparison
+//! with [`super::volpath`]: the same path tracer at surfaces (light samples attenuated by the
+//! fog's transmittance, BSDF samples joined by MIS), but the light scattered into each ray
+//! segment is integrated by marching along it instead of by sampling free flights.
+//!
+//! Along a segment of length `d` the in-scattered radiance is
+//! `integral_0^d T(t) sigma_s L_s(t) dt`, with `L_s` the single-scattered light from the
+//! lights, `phase Li T_light` (the equation of transfer, \[pbrt-v4\] sec. 14.1 in
+//! docs/references.md). The march takes points `t_k = (k + u) h` for `t_k < d`, one
+//! uniform `u` per segment (a jittered start), each weighted by the step `h`: stratified
+//! sampling, unbiased for any step (the last, partial stratum is reached with probability
+//! equal to its share of a step), with no banding; the step only sets the variance. At
+//! each point one light sample (no MIS: the march does not sample the phase function). The
+//! surface behind is attenuated by `exp(-sigma_t d)`. What is left out: light scattered
+//! more than once in the fog (a march scatters light from the lights only, not from
+//! surfaces or the fog) and the background scattered by the fog, so raymarch agrees with
+//! volpath when single scattering from the lights dominates (thin fog, black background,
+//! or `max_depth` 1).
+
+use glam::{Vec2, Vec3};
+
+use super::medium::Medium;
+use super::path::{Vertex, emitted, sample_direct_through};
+use super::sampler::Sampler;
+use super::volpath::{light_in_medium, roulette};
+use super::{Frame, RenderScene};
+use crate::core::Ray;
+
+/// The step, in mean free paths of the densest channel (`1 / max sigma_t`).
+pub const STEP_MEAN_FREE_PATHS: f32 = 0.25;
+/// At least this many steps a segment (the step shrinks on short segments).
+pub const MIN_STEPS: f32 = 16.0;
+/// At most this many steps a segment (the step grows on long segments).
+pub const MAX_STEPS: f32 = 1024.0;
+/// A segment that leaves the scene is marched until the transmittance of its most
+/// transparent scattering channel falls to this (the light beyond is dropped: a bias of at
+/// most this fraction of the in-scattered light).
+pub const ESCAPE_TRANSMITTANCE: f32 = 1e-4;
+
+/// The step along a segment of `length_m` in `fog`, metres:
+/// `STEP_MEAN_FREE_PATHS / max sigma_t`, kept within `[length / MAX_STEPS, length / MIN_STEPS]`.
+pub fn step_m(fog: &Medium, length_m: f32) -> f32 {
+    let mfp = STEP_MEAN_FREE_PATHS / fog.sigma_t_per_m().max_element().max(f32::MIN_POSITIVE);
+    mfp.min(length_m / MIN_STEPS).max(length_m / MAX_STEPS)
+}
+
+/// The radiance along camera ray `ray` through `fog` (`None`: the path tracer's estimate),
+/// with at most `max_depth` bounces; a march along a segment counts as one bounce.
+pub fn li(
+    scene: &RenderScene,
+    mut ray: Ray,
+    max_depth: u32,
+    sampler: &mut Sampler,
+    rays: &mut u64,
+    fog: Option<&Medium>,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
+    let mut beta = Vec3::ONE;
+    let mut specular = true;
+    let mut prev_pdf = 0.0f32;
+    let mut prev_point = ray.origin;
+    let mut depth = 0u32;
+    loop {
+        *rays += 1;
+        let hit = scene.intersect(&ray);
+        if let Some(m) = fog {
+            let t_max = hit.map_or(f32::INFINITY, |h| h.t);
+            if depth < max_depth {
+                l += beta * march(scene, m, &ray, t_max, sampler, rays);
+            }
+            beta *= m.transmittance(t_max);
+        }
+        let Some(hit) = hit else {
+            l += beta * scene.background;
+            break;
+        };
+        l += emitted(scene, &hit, ray.dir, beta, (specular, prev_pdf, prev_point));
+        if depth >= max_depth || beta == Vec3::ZERO {
+            break;
+        }
+        sampler.start_bounce(depth);
+        let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
+        depth += 1;
+        let bsdf = scene.surfaces[hit.surface as usize].bsdf;
+        let frame = Frame::new(hit.normal);
+        let wo = frame.to_local(-ray.dir);
+        if !bsdf.is_delta() {
+            let v = Vertex { hit: &hit, frame, wo, bsdf };
+            let tr = |d: f32| fog.map_or(Vec3::ONE, |m| m.transmittance(d));
+            l += beta * sample_direct_through(scene, &v, u_light, rays, true, tr);
+        }
+        let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
+        let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
+            break;
+        };
+        beta *= s.weight();
+        specular = s.specular;
+        prev_pdf = s.pdf;
+        prev_point = hit.point;
+        ray = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
+        if !roulette(&mut beta, depth, sampler) {
+            break;
+        }
+    }
+    l
+}
+
+/// The light from the lights scattered once into `ray` over `[0, t_max)` (infinite: the ray
+/// leaves the scene), by the jittered march of the module documentation.
+fn march(
+    scene: &RenderScene,
+    m: &Medium,
+    ray: &Ray,
+    t_max: f32,
+    sampler: &mut Sampler,
+    rays: &mut u64,
+) -> Vec3 {
+    let sigma_t = m.sigma_t_per_m();
+    let length_m = if t_max.is_finite() {
+        t_max
+    } else {
+        // The most transparent channel that scatters (sigma_t >= sigma_s > 0 there).
+        let thinnest =
+            (0..3).filter(|&c| m.sigma_s_per_m[c] > 0.0).map(|c| sigma_t[c]).fold(f32::INFINITY, f32::min);
+        -ESCAPE_TRANSMITTANCE.ln() / thinnest
+    };
+    if m.sigma_s_per_m == Vec3::ZERO || !(length_m > 0.0 && length_m.is_finite()) {
+        return Vec3::ZERO;
+    }
+    let h = step_m(m, length_m);
+    let mut sum = Vec3::ZERO;
+    let mut t = sampler.get_1d() * h;
+    while t < length_m {
+        let u = Vec2::new(sampler.get_1d(), sampler.get_1d());
+        sum += m.transmittance(t) * light_in_medium(scene, m, ray.at(t), ray.dir, u, false, rays);
+        t += h;
+    }
+    m.sigma_s_per_m * sum * h
+}
