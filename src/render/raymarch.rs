@@ -19,11 +19,11 @@
 
 use glam::{Vec2, Vec3};
 
+use super::RenderScene;
 use super::medium::Medium;
-use super::path::{Vertex, emitted, sample_direct_through};
+use super::path::emitted;
 use super::sampler::Sampler;
-use super::volpath::{light_in_medium, roulette};
-use super::{Frame, RenderScene};
+use super::volpath::{light_in_medium, surface_bounce};
 use crate::core::Ray;
 
 /// The step, in mean free paths of the densest channel (`1 / max sigma_t`).
@@ -78,29 +78,13 @@ pub fn li(
         if depth >= max_depth || beta == Vec3::ZERO {
             break;
         }
-        sampler.start_bounce(depth);
-        let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
-        depth += 1;
-        let bsdf = scene.surfaces[hit.surface as usize].bsdf;
-        let frame = Frame::new(hit.normal);
-        let wo = frame.to_local(-ray.dir);
-        if !bsdf.is_delta() {
-            let v = Vertex { hit: &hit, frame, wo, bsdf };
-            let tr = |d: f32| fog.map_or(Vec3::ONE, |m| m.transmittance(d));
-            l += beta * sample_direct_through(scene, &v, u_light, rays, true, tr);
-        }
-        let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
-        let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
+        let (light, next) = surface_bounce(scene, fog, &hit, &ray, &mut beta, &mut depth, sampler, rays);
+        l += light;
+        let Some((next, bsdf_pdf, bsdf_specular)) = next else {
             break;
         };
-        beta *= s.weight();
-        specular = s.specular;
-        prev_pdf = s.pdf;
-        prev_point = hit.point;
-        ray = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
-        if !roulette(&mut beta, depth, sampler) {
-            break;
-        }
+        (specular, prev_pdf, prev_point) = (bsdf_specular, bsdf_pdf, hit.point);
+        ray = next;
     }
     l
 }

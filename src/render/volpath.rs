@@ -12,7 +12,7 @@ use super::medium::Medium;
 use super::path::{RR_START_DEPTH, Vertex, emitted, sample_direct_through};
 use super::sampler::Sampler;
 use super::{Frame, RenderScene, power_heuristic};
-use crate::core::Ray;
+use crate::core::{Hit, Ray};
 
 /// The radiance along camera ray `ray` through `fog` (`None`: the plain path tracer's
 /// estimate), with at most `max_depth` bounces, scatterings in the medium included.
@@ -65,31 +65,55 @@ pub fn li(
         if depth >= max_depth {
             break;
         }
-        sampler.start_bounce(depth);
-        let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
-        depth += 1;
-        let bsdf = scene.surfaces[hit.surface as usize].bsdf;
-        let frame = Frame::new(hit.normal);
-        let wo = frame.to_local(-ray.dir);
-        if !bsdf.is_delta() {
-            let v = Vertex { hit: &hit, frame, wo, bsdf };
-            let tr = |d: f32| fog.map_or(Vec3::ONE, |m| m.transmittance(d));
-            l += beta * sample_direct_through(scene, &v, u_light, rays, true, tr);
-        }
-        let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
-        let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
+        let (light, next) = surface_bounce(scene, fog, &hit, &ray, &mut beta, &mut depth, sampler, rays);
+        l += light;
+        let Some((next, bsdf_pdf, bsdf_specular)) = next else {
             break;
         };
-        beta *= s.weight();
-        specular = s.specular;
-        prev_pdf = s.pdf;
-        prev_point = hit.point;
-        ray = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
-        if !roulette(&mut beta, depth, sampler) {
-            break;
-        }
+        (specular, prev_pdf, prev_point) = (bsdf_specular, bsdf_pdf, hit.point);
+        ray = next;
     }
     l
+}
+
+/// The surface vertex `hit` (reached along `ray`) of a path through `fog`, for volpath and
+/// raymarch alike: a light sample attenuated by the fog's transmittance, then a BSDF sample
+/// and Russian roulette, as in [`super::path::trace`]. Returns the light the vertex adds and,
+/// unless the path ends there, the next ray with its BSDF density and whether it was
+/// specular; `beta` and `depth` are updated.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn surface_bounce(
+    scene: &RenderScene,
+    fog: Option<&Medium>,
+    hit: &Hit,
+    ray: &Ray,
+    beta: &mut Vec3,
+    depth: &mut u32,
+    sampler: &mut Sampler,
+    rays: &mut u64,
+) -> (Vec3, Option<(Ray, f32, bool)>) {
+    sampler.start_bounce(*depth);
+    let (u_light, u_bsdf) = (sampler.get_2d(), sampler.get_2d());
+    *depth += 1;
+    let bsdf = scene.surfaces[hit.surface as usize].bsdf;
+    let frame = Frame::new(hit.normal);
+    let wo = frame.to_local(-ray.dir);
+    let mut light = Vec3::ZERO;
+    if !bsdf.is_delta() {
+        let v = Vertex { hit, frame, wo, bsdf };
+        let tr = |d: f32| fog.map_or(Vec3::ONE, |m| m.transmittance(d));
+        light = *beta * sample_direct_through(scene, &v, u_light, rays, true, tr);
+    }
+    let u_lobe = if bsdf.has_lobes() { sampler.get_1d() } else { 0.0 };
+    let Some(s) = bsdf.sample(wo, u_bsdf, u_lobe) else {
+        return (light, None);
+    };
+    *beta *= s.weight();
+    let next = Ray::spawn(hit.point, hit.normal, frame.to_world(s.wi));
+    if !roulette(beta, *depth, sampler) {
+        return (light, None);
+    }
+    (light, Some((next, s.pdf, s.specular)))
 }
 
 /// Russian roulette from [`RR_START_DEPTH`] on (survival max(beta), at most 1); false when
