@@ -62,7 +62,7 @@ pub const ALPHA: f32 = 2.0 / 3.0;
 /// iteration's visible points.
 pub const DEFAULT_RADIUS_FRACTION: f32 = 0.01;
 /// Photons a work unit (dealt to threads and ranks).
-const BLOCK: u64 = 4096;
+const BLOCK: u64 = 256;
 /// Most photons an iteration (photon streams are keyed by `iteration << 40 | photon`).
 pub const MAX_PHOTONS_PER_ITERATION: u64 = 1 << 40;
 
