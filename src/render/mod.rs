@@ -681,7 +681,10 @@ fn render_pixel(
                 scene.intersect(&ray).map_or(scene.background, |hit| sol.radiance(&hit))
             }
             Some(PixelAid::Spectral(spectra)) => {
-                spectral::li(scene, spectra, ray, s.max_depth, &mut sampler, rays)
+                // The pixel's samples take the wavelengths stratified (sample k in the k-th of
+                // spp equal intervals): colour noise falls faster than 1/sqrt(spp).
+                let u = ((k as f32 + sampler.get_1d()) / s.spp as f32).min(1.0 - f32::EPSILON);
+                spectral::li(scene, spectra, ray, s.max_depth, u, &mut sampler, rays)
             }
             None if s.integrator == IntegratorKind::Volpath => {
                 volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())

@@ -128,16 +128,17 @@ fn colour_factor(bsdf: &Bsdf, colour: Vec4, wo: Vec3, wi: Vec3) -> Vec4 {
 }
 
 /// The spectral radiance along camera ray `ray`, returned as the film's linear sRGB, with at
-/// most `max_depth` bounces; the first number of `sampler` chooses the wavelengths.
+/// most `max_depth` bounces; `u_lambda` in [0, 1) chooses the wavelengths.
 pub fn li(
     scene: &RenderScene,
     spectra: &SpectralScene,
     mut ray: Ray,
     max_depth: u32,
+    u_lambda: f32,
     sampler: &mut Sampler,
     rays: &mut u64,
 ) -> Vec3 {
-    let mut lambda = Wavelengths::sample_visible(sampler.get_1d());
+    let mut lambda = Wavelengths::sample_visible(u_lambda);
     let mut l = Vec4::ZERO;
     let mut beta = Vec4::ONE;
     let mut specular = true;
