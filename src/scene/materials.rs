@@ -712,6 +712,38 @@ mod tests {
     }
 
     #[test]
+    fn dispersion_keys_give_a_law_on_glass_only() {
+        let m = spec(
+            "[materials.bk7]\nkind = \"dielectric\"\nsellmeier_b = [1.03961212, 0.231792344, 1.01046945]\n\
+             sellmeier_c = [0.00600069867, 0.0200179144, 103.560653]\n",
+        )
+        .unwrap();
+        let o = m.optical.unwrap();
+        // The Sellmeier law sets n_d (BK7: 1.5168) for the RGB integrators.
+        assert!((o.ior - 1.5168).abs() < 1e-4, "{}", o.ior);
+        assert!(matches!(o.dispersion, Some(Dispersion::Sellmeier { .. })));
+        let m = spec("[materials.crown]\nkind = \"dielectric\"\nior = 1.52\nabbe_number = 58.6\n").unwrap();
+        let law = m.optical.unwrap().dispersion.unwrap();
+        assert!((law.abbe_number() - 58.6).abs() < 1e-9 && m.optical.unwrap().ior == 1.52);
+        for (bad, needle) in [
+            ("abbe_number = 40", "dielectric"),
+            ("kind = \"metal\"\nabbe_number = 40", "dielectric"),
+            (
+                "kind = \"dielectric\"\nabbe_number = 40\nsellmeier_b = [1, 0, 0]\nsellmeier_c = [0, 0, 0]",
+                "not both",
+            ),
+            (
+                "kind = \"dielectric\"\nior = 1.5\nsellmeier_b = [1, 0, 0]\nsellmeier_c = [0, 0, 0]",
+                "either ior",
+            ),
+            ("kind = \"dielectric\"\nsellmeier_c = [0, 0, 0]", "needs sellmeier_b"),
+        ] {
+            let e = spec(&format!("[materials.x]\n{bad}\n")).unwrap_err();
+            assert!(e.contains(needle) && !e.contains('\n'), "{bad}: {e}");
+        }
+    }
+
+    #[test]
     fn builtin_library_is_valid_and_large_enough() {
         let lib = MaterialLibrary::builtin();
         let acoustic: Vec<&Material> = lib.materials.values().filter(|m| m.acoustic.is_some()).collect();
