@@ -852,7 +852,11 @@ pub fn render_on(
         rays,
         photons: 0,
         seconds: start.elapsed().as_secs_f64(),
-        notes: solution.iter().map(|sol| sol.summary()).collect(),
+        notes: match &aid {
+            Some(PixelAid::Radiosity(sol)) => vec![sol.summary()],
+            Some(PixelAid::Spectral(spectra)) => vec![spectra.summary()],
+            None => Vec::new(),
+        },
     }))
 }
 

@@ -20,7 +20,7 @@ use super::bsdf::fresnel_schlick;
 use super::lights::Light;
 use super::path::RR_START_DEPTH;
 use super::sampler::Sampler;
-use super::spectrum::{RgbIlluminant, RgbSpectrum, Wavelengths};
+use super::spectrum::{RgbIlluminant, RgbSpectrum, Wavelengths, reflectance_to_rgb};
 use super::{Bsdf, Frame, RenderScene, power_heuristic};
 use crate::core::{Hit, Ray};
 use crate::scene::dispersion::Dispersion;
@@ -40,6 +40,10 @@ pub struct SpectralScene {
     /// a light sample's spectrum is that one scaled to the sample's RGB.
     lights: Vec<(f32, RgbIlluminant)>,
     background: RgbIlluminant,
+    /// Distinct reflectance colours fitted, and the largest error of their RGB round trip
+    /// with the colour it belongs to (a saturated colour that no smooth reflectance reaches).
+    fitted: usize,
+    worst_fit: (f32, Vec3),
 }
 
 impl SpectralScene {
@@ -84,7 +88,29 @@ impl SpectralScene {
                 (rgb.max_element(), illuminant(rgb))
             })
             .collect();
-        Self { surfaces, lights, background: illuminant(scene.background) }
+        let background = illuminant(scene.background);
+        let mut worst_fit = (0.0f32, Vec3::ZERO);
+        for (rgb, s) in &reflectances {
+            let error =
+                (reflectance_to_rgb(|nm| s.eval(nm)) - rgb.clamp(Vec3::ZERO, Vec3::ONE)).abs().max_element();
+            if error > worst_fit.0 {
+                worst_fit = (error, *rgb);
+            }
+        }
+        Self { surfaces, lights, background, fitted: reflectances.len(), worst_fit }
+    }
+
+    /// One line for the render's notes: the colours fitted and the worst round trip.
+    pub fn summary(&self) -> String {
+        let (error, rgb) = self.worst_fit;
+        let worst = match error > 0.0 {
+            true => format!(
+                "largest RGB round-trip error {error:.1e} (colour {:.3}, {:.3}, {:.3})",
+                rgb.x, rgb.y, rgb.z
+            ),
+            false => "every round trip exact".to_string(),
+        };
+        format!("spectral: {} reflectance colours up-sampled; {worst}", self.fitted)
     }
 }
 
