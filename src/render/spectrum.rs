@@ -17,7 +17,8 @@
 //!   so it is smooth and always in [0, 1] (energy-conserving). The three coefficients of each
 //!   colour are solved once per render by Levenberg-Marquardt so that the spectrum seen under
 //!   the film's white (D65) gives back the RGB: the round trip is exact up to the solver's
-//!   tolerance, where Smits 1999 is off by percents. Greys are constant spectra, exactly.
+//!   tolerance, which Smits 1999's fixed basis spectra (tabulated for other primaries) are
+//!   not by construction. Greys are constant spectra, exactly.
 //! - Light: an RGB emission `e` is `2 max(e) S_(e / 2 max(e))(l) D65(l)` (pbrt-v4's
 //!   `RGBIlluminantSpectrum`), D65 being CIE's daylight table normalised to luminance 1.
 //! - White stays white: the film's white is D65 (sRGB's), and XYZ is turned into RGB by the
