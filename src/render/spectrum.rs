@@ -257,7 +257,7 @@ fn unit_nm(nm: f64) -> f64 {
     (nm - f64::from(LAMBDA_MIN_NM)) / f64::from(LAMBDA_MAX_NM - LAMBDA_MIN_NM)
 }
 
-/// A smooth reflectance up-sampled from an RGB colour ([Jakob and Hanika 2019]).
+/// A smooth reflectance up-sampled from an RGB colour (Jakob and Hanika 2019).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RgbSpectrum {
     /// The sigmoid's polynomial coefficients `c0 t^2 + c1 t + c2`.
