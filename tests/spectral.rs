@@ -119,18 +119,35 @@ fn grey_cornell(world: &World, albedo: f32, grey: bool) -> Vec<SurfaceOptics> {
         .collect()
 }
 
-/// Grey surfaces under white light: products of flat spectra are flat, so the spectral render
+/// Grey surfaces (Lambert walls, a clear glass ball, a grey metal ball) under white light:
+/// products of flat spectra are flat, so the spectral render
 /// must match the RGB one statistically in every region and channel, through all bounces
 /// (16 regions x 3 channels, 11 degrees of freedom: |t| > 6 has a chance of about 1e-4 each).
 /// An albedo 10 % higher must be told apart (the test can fail).
 #[test]
 fn grey_scene_spectral_matches_the_rgb_path_tracer() {
     let world = cornell();
-    let mesh = &world.scene.mesh;
+    // A clear glass ball (no dispersion) and a grey rough metal ball on the floor.
+    let mut mesh = world.scene.mesh.clone();
+    let glass = mesh.surface_id("clear_glass");
+    let metal = mesh.surface_id("grey_metal");
+    let spheres = vec![
+        Sphere::new(Vec3::new(0.2, 0.2, 0.43), 0.08, glass),
+        Sphere::new(Vec3::new(0.4, 0.3, 0.25), 0.08, metal),
+    ];
+    let accel = Accel::build(&mesh, spheres.clone(), BuildQuality::default());
     let cam = propsim::render::scene_camera(&world, 1.0).unwrap();
     let scene_of = |albedo: f32| {
-        let optics = grey_cornell(&world, albedo, true);
-        RenderScene::from_parts(&world.accel, mesh, &[], optics, &[], Vec3::ZERO)
+        let mut optics = grey_cornell(&world, albedo, true);
+        optics.push(SurfaceOptics {
+            bsdf: Bsdf::Dielectric { eta: 1.5, tint: Vec3::ONE },
+            emission: Vec3::ZERO,
+        });
+        optics.push(SurfaceOptics {
+            bsdf: Bsdf::Metal { f0: Vec3::splat(0.8), alpha: 0.3 },
+            emission: Vec3::ZERO,
+        });
+        RenderScene::from_parts(&accel, &mesh, &spheres, optics, &[], Vec3::ZERO)
     };
     let grey = scene_of(0.6);
     let rgb = pooled(&grey, &cam, IntegratorKind::Path, 64, 8, 1);
