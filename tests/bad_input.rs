@@ -248,6 +248,29 @@ catalogue! {
     materials_permittivity_below_one: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.concrete]\nrelative_permittivity = 0.5\n")],
         &["m.toml", "concrete", "relative_permittivity"]);
+    materials_sellmeier_c_negative: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.flint]\nkind = \"dielectric\"\nsellmeier_b = [1.0, 0.2, 1.0]\nsellmeier_c = [-0.006, 0.02, 100.0]\n")],
+        &["m.toml", "flint", "sellmeier_c", ">= 0"]);
+    materials_sellmeier_b_nan: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.flint]\nkind = \"dielectric\"\nsellmeier_b = [nan, 0.2, 1.0]\nsellmeier_c = [0.006, 0.02, 100.0]\n")],
+        &["m.toml", "flint", "sellmeier_b", "finite"]);
+    materials_sellmeier_c_nan: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.flint]\nkind = \"dielectric\"\nsellmeier_b = [1.0, 0.2, 1.0]\nsellmeier_c = [0.006, nan, 100.0]\n")],
+        &["m.toml", "flint", "sellmeier_c"]);
+    materials_abbe_number_zero: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.crown]\nkind = \"dielectric\"\nior = 1.52\nabbe_number = 0\n")],
+        &["m.toml", "crown", "abbe_number", "> 0"]);
+    materials_abbe_number_negative: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.crown]\nkind = \"dielectric\"\nior = 1.52\nabbe_number = -40\n")],
+        &["m.toml", "crown", "abbe_number", "> 0"]);
+    materials_dispersion_on_a_diffuse_material: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.paint]\ncolor = [0.5, 0.5, 0.5]\nabbe_number = 40\n")],
+        &["m.toml", "paint", "abbe_number", "dielectric"]);
+    materials_sellmeier_without_c: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("m.toml", "[materials.flint]\nkind = \"dielectric\"\nsellmeier_b = [1.0, 0.2, 1.0]\n")],
+        &["m.toml", "flint", "sellmeier_b needs sellmeier_c"]);
+    render_spectral_with_another_integrator: case(&["render", "{shoebox}", "--spectral", "--integrator", "bdpt", "-o", "{out}/r.png"],
+        &["--spectral", "bdpt"]);
     materials_binary: with_files(&["info", "{dir}/box.obj", "--materials", "{dir}/m.toml"],
         &[File::Text("box.obj", BOX_OBJ), File::Bytes("m.toml", BINARY)],
         &["m.toml", "cannot read"]);

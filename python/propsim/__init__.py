@@ -50,7 +50,9 @@ def render(scene="builtin:cornell_box_classic", **options):
     """Renders an image of ``scene``: ``propsim render`` in memory.
 
     Options (defaults: the scene's, else the command line's): ``width``, ``height``, ``spp``,
-    ``max_depth``, ``integrator`` ("raycast", "whitted", "distributed", "path"), ``seed`` (0),
+    ``max_depth``, ``integrator`` (a name of ``propsim render --integrator``: "path",
+    "bdpt", "spectral", ...), ``spectral`` (True: the same as ``integrator="spectral"``),
+    ``seed`` (0),
     ``eye``, ``target``, ``up`` (points), ``fov_deg``, ``exposure``, ``tone_map``,
     ``clamp_indirect``, ``materials`` (list of files), ``up_axis``, ``scale``, ``threads``;
     ``out=DIR`` writes ``DIR/render.png``, ``output=FILE`` writes a .png, .exr or .npy file.

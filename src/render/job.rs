@@ -44,6 +44,25 @@ pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow
     {
         warnings.push(format!("{scene_label}: {why}"));
     }
+    if s.integrator != IntegratorKind::Spectral {
+        let dispersive: Vec<&str> = world
+            .scene
+            .surfaces
+            .iter()
+            .filter(|sf| {
+                sf.material.as_ref().and_then(|m| m.optical.as_ref()).is_some_and(|o| o.dispersion.is_some())
+            })
+            .map(|sf| sf.name.as_str())
+            .collect();
+        if let Some(first) = dispersive.first() {
+            warnings.push(format!(
+                "{scene_label}: {} dispersive glass surface(s) (\"{first}\"...) refract every colour at n_d \
+                 with --integrator {}; only --integrator spectral disperses",
+                dispersive.len(),
+                s.integrator.name()
+            ));
+        }
+    }
     if s.integrator == IntegratorKind::Radiosity {
         let rs = RenderScene::new(world);
         super::radiosity::supported(&rs).map_err(|e| anyhow!("{scene_label}: {e}"))?;

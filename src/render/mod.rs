@@ -38,6 +38,8 @@ pub mod raycast;
 pub mod raymarch;
 pub mod sampler;
 pub mod shape_light;
+pub mod spectral;
+pub mod spectrum;
 pub mod splat;
 pub mod sppm;
 pub mod volpath;
@@ -57,6 +59,7 @@ use crate::core::sampling::orthonormal_basis;
 use crate::core::{Accel, Hit, Instance, PrimitiveKind, Ray, Sphere, TriangleMesh};
 use crate::dist::Cluster;
 use crate::render::sampler::Sampler;
+use crate::scene::dispersion::Dispersion;
 use crate::scene::materials::{OpticalKind, OpticalProps};
 use crate::scene::{Surface, World};
 
@@ -108,11 +111,14 @@ pub enum IntegratorKind {
     /// Ray marching through the same fog ([`raymarch`]): single scattering from the lights
     /// integrated along each segment, for comparison with `volpath`.
     Raymarch,
+    /// Spectral path tracing ([`spectral`]): four wavelengths a path, RGB colours up-sampled
+    /// to spectra, dispersive glass.
+    Spectral,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 12] = [
+    pub const NAMES: [&'static str; 13] = [
         "raycast",
         "whitted",
         "distributed",
@@ -125,6 +131,7 @@ impl IntegratorKind {
         "pssmlt",
         "volpath",
         "raymarch",
+        "spectral",
     ];
 
     /// The integrator's name.
@@ -136,7 +143,13 @@ impl IntegratorKind {
     fn jitters(self) -> bool {
         matches!(
             self,
-            Self::Distributed | Self::Path | Self::Bdpt | Self::Radiosity | Self::Volpath | Self::Raymarch
+            Self::Distributed
+                | Self::Path
+                | Self::Bdpt
+                | Self::Radiosity
+                | Self::Volpath
+                | Self::Raymarch
+                | Self::Spectral
         )
     }
 
@@ -163,6 +176,7 @@ impl FromStr for IntegratorKind {
             "pssmlt" => Ok(Self::Pssmlt),
             "volpath" => Ok(Self::Volpath),
             "raymarch" => Ok(Self::Raymarch),
+            "spectral" => Ok(Self::Spectral),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -320,6 +334,9 @@ pub struct RenderScene<'a> {
     pub lights: Lights,
     /// Radiance of rays that leave the scene.
     pub background: Vec3,
+    /// Each surface's dispersion law, by surface id (glass with `sellmeier_*` or
+    /// `abbe_number`; seen by the spectral integrator only). Empty when none disperses.
+    pub dispersion: Vec<Option<Dispersion>>,
     /// The mesh (radiosity patches its triangles).
     mesh: &'a TriangleMesh,
     /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
@@ -352,7 +369,19 @@ impl<'a> RenderScene<'a> {
         let background =
             s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
         let instances = (s.instances.meshes.as_slice(), s.instances.list.as_slice());
-        Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background)
+        let mut scene =
+            Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background);
+        let dispersion: Vec<Option<Dispersion>> = s
+            .surfaces
+            .iter()
+            .map(|surface| {
+                surface.material.as_ref().and_then(|m| m.optical.as_ref()).and_then(|o| o.dispersion)
+            })
+            .collect();
+        if dispersion.iter().any(Option::is_some) {
+            scene.dispersion = dispersion;
+        }
+        scene
     }
 
     /// A render scene from its parts; `points` are (position, intensity) point lights, the
@@ -396,7 +425,7 @@ impl<'a> RenderScene<'a> {
                 ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
             })
             .collect();
-        Self { accel, surfaces, lights, background, mesh, triangles }
+        Self { accel, surfaces, lights, background, dispersion: Vec::new(), mesh, triangles }
     }
 
     /// The scene's triangle mesh (the one `accel` was built from).
@@ -615,7 +644,8 @@ pub fn radiance(
         | IntegratorKind::Radiosity
         | IntegratorKind::Pssmlt
         | IntegratorKind::Volpath
-        | IntegratorKind::Raymarch => {
+        | IntegratorKind::Raymarch
+        | IntegratorKind::Spectral => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -631,7 +661,7 @@ fn render_pixel(
     x: u32,
     y: u32,
     rays: &mut u64,
-    solution: Option<&radiosity::Solution>,
+    aid: Option<&PixelAid>,
 ) -> Vec3 {
     let (mut rng, pixel_seed) = pixel_stream(s, x, y);
     let jitter = s.integrator.jitters();
@@ -645,10 +675,16 @@ fn render_pixel(
             let film = Vec2::new((x as f32 + 0.5) / s.width as f32, (y as f32 + 0.5) / s.height as f32);
             camera.ray(film, Vec2::ZERO)
         };
-        let l = match solution {
-            Some(sol) => {
+        let l = match aid {
+            Some(PixelAid::Radiosity(sol)) => {
                 *rays += 1;
                 scene.intersect(&ray).map_or(scene.background, |hit| sol.radiance(&hit))
+            }
+            Some(PixelAid::Spectral(spectra)) => {
+                // The pixel's samples take the wavelengths stratified (sample k in the k-th of
+                // spp equal intervals): colour noise falls faster than 1/sqrt(spp).
+                let u = ((k as f32 + sampler.get_1d()) / s.spp as f32).min(1.0 - f32::EPSILON);
+                spectral::li(scene, spectra, ray, s.max_depth, u, &mut sampler, rays)
             }
             None if s.integrator == IntegratorKind::Volpath => {
                 volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
@@ -664,6 +700,15 @@ fn render_pixel(
         }
     }
     sum / s.spp as f32
+}
+
+/// What an integrator computes once per render before its pixels: the radiosity solution,
+/// or the spectral integrator's up-sampled spectra.
+pub enum PixelAid {
+    /// The radiosity solution the pixels look up.
+    Radiosity(radiosity::Solution),
+    /// The spectra of the scene's colours.
+    Spectral(spectral::SpectralScene),
 }
 
 /// Pixel `(x, y)`'s random stream and the seed of its Sobol scrambles (drawn first from it).
@@ -717,6 +762,7 @@ pub fn render_on(
                 surfaces: scene.surfaces.clone(),
                 lights: scene.lights.clone(),
                 background,
+                dispersion: scene.dispersion.clone(),
                 mesh: scene.mesh,
                 triangles: scene.triangles.clone(),
             };
@@ -735,8 +781,15 @@ pub fn render_on(
     }
     // Radiosity: every process solves the same system (deterministically), then renders its
     // tiles from it; the form-factor rays are counted once, on rank 0.
-    let solution = match settings.integrator {
-        IntegratorKind::Radiosity => Some(radiosity::solve_scene(scene, &settings.radiosity, settings.seed)?),
+    let aid = match settings.integrator {
+        IntegratorKind::Radiosity => {
+            Some(PixelAid::Radiosity(radiosity::solve_scene(scene, &settings.radiosity, settings.seed)?))
+        }
+        IntegratorKind::Spectral => Some(PixelAid::Spectral(spectral::SpectralScene::new(scene))),
+        _ => None,
+    };
+    let solution = match &aid {
+        Some(PixelAid::Radiosity(sol)) => Some(sol),
         _ => None,
     };
     let (w, h) = (settings.width, settings.height);
@@ -757,7 +810,7 @@ pub fn render_on(
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays, solution.as_ref()));
+                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays, aid.as_ref()));
                     }
                 }
                 px
@@ -799,7 +852,11 @@ pub fn render_on(
         rays,
         photons: 0,
         seconds: start.elapsed().as_secs_f64(),
-        notes: solution.iter().map(|sol| sol.summary()).collect(),
+        notes: match &aid {
+            Some(PixelAid::Radiosity(sol)) => vec![sol.summary()],
+            Some(PixelAid::Spectral(spectra)) => vec![spectra.summary()],
+            None => Vec::new(),
+        },
     }))
 }
 

@@ -39,10 +39,14 @@ pub struct RenderOptions {
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
     /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
-    /// volpath (volumetric path tracing through a fog, --fog-*) or raymarch (ray marching
-    /// through the fog, single scattering) (default: the scene's, else path).
+    /// volpath (volumetric path tracing through a fog, --fog-*), raymarch (ray marching
+    /// through the fog, single scattering) or spectral (spectral path tracing, dispersive
+    /// glass) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
+    /// Spectral rendering: the same as --integrator spectral.
+    #[arg(long)]
+    pub spectral: bool,
     /// Random seed: the same seed gives the same image for any thread count.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
@@ -100,7 +104,15 @@ pub struct RenderOptions {
 /// The settings the scene suggests, overridden by the flags.
 pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<RenderSettings> {
     let desc = world.scene.desc.render.clone().unwrap_or_default();
-    let integrator_name = options.integrator.clone().or(desc.integrator).unwrap_or_else(|| "path".into());
+    if options.spectral
+        && let Some(other) = options.integrator.as_deref().filter(|name| *name != "spectral")
+    {
+        anyhow::bail!("--spectral means --integrator spectral, not {other}");
+    }
+    let integrator_name = match options.spectral {
+        true => "spectral".to_string(),
+        false => options.integrator.clone().or(desc.integrator).unwrap_or_else(|| "path".into()),
+    };
     let integrator: IntegratorKind =
         integrator_name.parse().map_err(|e: String| anyhow!("--integrator: {e}"))?;
     let d = RenderSettings::default();

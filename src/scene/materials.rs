@@ -7,6 +7,7 @@ use std::path::Path;
 use glam::Vec3;
 use serde::Deserialize;
 
+use super::dispersion::Dispersion;
 use super::error::SceneError;
 use super::itu;
 
@@ -119,6 +120,9 @@ pub struct OpticalProps {
     pub ior: f32,
     /// Emitted radiance, W / (m^2 sr) per channel.
     pub emission: Vec3,
+    /// How the index varies with wavelength (dielectrics only; `ior` is then `n_d`), seen by
+    /// the spectral integrator; `None`: the same index at every wavelength.
+    pub dispersion: Option<Dispersion>,
 }
 
 impl Default for OpticalProps {
@@ -129,6 +133,7 @@ impl Default for OpticalProps {
             roughness: 0.0,
             ior: 1.5,
             emission: Vec3::ZERO,
+            dispersion: None,
         }
     }
 }
@@ -209,6 +214,12 @@ pub struct MaterialSpec {
     pub ior: Option<f32>,
     /// Emitted radiance (linear RGB).
     pub emission: Option<[f32; 3]>,
+    /// Sellmeier coefficients `B_1..B_3` of a dispersive dielectric (with `sellmeier_c`).
+    pub sellmeier_b: Option<[f64; 3]>,
+    /// Sellmeier coefficients `C_1..C_3`, um^2 (with `sellmeier_b`).
+    pub sellmeier_c: Option<[f64; 3]>,
+    /// Abbe number `V_d` of a dispersive dielectric whose `ior` is `n_d` (Cauchy's law).
+    pub abbe_number: Option<f64>,
 }
 
 impl MaterialSpec {
@@ -229,6 +240,13 @@ impl MaterialSpec {
         }
         if later.relative_permittivity.is_some() || later.conductivity_s_per_m.is_some() {
             m.itu = None;
+        }
+        // A later dispersion law replaces the earlier one (and a Sellmeier law the `ior`).
+        if later.sellmeier_b.is_some() || later.sellmeier_c.is_some() {
+            (m.abbe_number, m.ior) = (None, None);
+        }
+        if later.abbe_number.is_some() {
+            (m.sellmeier_b, m.sellmeier_c) = (None, None);
         }
         if later.itu.is_some()
             || later.relative_permittivity.is_some()
@@ -254,7 +272,10 @@ impl MaterialSpec {
             kind,
             roughness,
             ior,
-            emission
+            emission,
+            sellmeier_b,
+            sellmeier_c,
+            abbe_number
         );
         m
     }
@@ -370,6 +391,39 @@ impl MaterialSpec {
         Ok(Some(RadioScattering { scattering_coefficient, xpd_coefficient, pattern }))
     }
 
+    /// The dispersion keys, checked, and the index at the d line they imply (Sellmeier; `None`
+    /// for Cauchy, whose `n_d` is `ior`). Only a dielectric disperses; the Sellmeier law gives
+    /// its own `n_d`, so it takes no `ior` and no `abbe_number`.
+    fn dispersion(&self, kind: OpticalKind) -> Result<(Option<Dispersion>, Option<f32>), String> {
+        let key = match (self.sellmeier_b, self.sellmeier_c, self.abbe_number) {
+            (None, None, None) => return Ok((None, None)),
+            (Some(_), _, _) => "sellmeier_b",
+            (_, Some(_), _) => "sellmeier_c",
+            _ => "abbe_number",
+        };
+        if kind != OpticalKind::Dielectric {
+            return Err(format!("{key} needs kind = \"dielectric\" (only glass disperses)"));
+        }
+        match (self.sellmeier_b, self.sellmeier_c, self.abbe_number) {
+            (Some(b), Some(c), None) => {
+                if self.ior.is_some() {
+                    return Err(
+                        "give either ior or sellmeier_b/sellmeier_c (the Sellmeier law sets n_d)".into()
+                    );
+                }
+                let law = Dispersion::sellmeier(b, c)?;
+                Ok((Some(law), Some(law.index_at(super::dispersion::D_LINE_NM) as f32)))
+            }
+            (None, None, Some(v)) => {
+                let n_d = f64::from(self.ior.unwrap_or(OpticalProps::default().ior));
+                Ok((Some(Dispersion::from_abbe(n_d, v)?), None))
+            }
+            (Some(_), None, None) => Err("sellmeier_b needs sellmeier_c".into()),
+            (None, Some(_), None) => Err("sellmeier_c needs sellmeier_b".into()),
+            _ => Err("give either sellmeier_b/sellmeier_c or abbe_number, not both".into()),
+        }
+    }
+
     /// Checks and resolves the entry called `name`.
     pub fn resolve(&self, name: &str) -> Result<Material, String> {
         let bands_hz = self.bands_hz.as_deref();
@@ -421,13 +475,18 @@ impl MaterialSpec {
             || self.kind.is_some()
             || self.emission.is_some()
             || self.ior.is_some()
-            || self.roughness.is_some();
+            || self.roughness.is_some()
+            || self.sellmeier_b.is_some()
+            || self.sellmeier_c.is_some()
+            || self.abbe_number.is_some();
         let optical = if optical_given {
             let d = OpticalProps::default();
             let color = self.color.map_or(d.color, Vec3::from);
             let emission = self.emission.map_or(Vec3::ZERO, Vec3::from);
             let roughness = self.roughness.unwrap_or(d.roughness);
-            let ior = self.ior.unwrap_or(d.ior);
+            let kind = self.kind.unwrap_or_default();
+            let (dispersion, ior) = self.dispersion(kind)?;
+            let ior = ior.unwrap_or(self.ior.unwrap_or(d.ior));
             if !color.is_finite() || color.min_element() < 0.0 || color.max_element() > 1.0 {
                 return Err("color components must be in [0, 1]".into());
             }
@@ -440,7 +499,7 @@ impl MaterialSpec {
             if !(ior.is_finite() && ior >= 1.0) {
                 return Err("ior must be >= 1".into());
             }
-            Some(OpticalProps { kind: self.kind.unwrap_or_default(), color, roughness, ior, emission })
+            Some(OpticalProps { kind, color, roughness, ior, emission, dispersion })
         } else {
             None
         };
@@ -649,6 +708,38 @@ mod tests {
         ] {
             let e = spec(&format!("[materials.x]\nitu = \"concrete\"\n{bad}\n")).unwrap_err();
             assert!(e.contains(key) && !e.contains('\n'), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn dispersion_keys_give_a_law_on_glass_only() {
+        let m = spec(
+            "[materials.bk7]\nkind = \"dielectric\"\nsellmeier_b = [1.03961212, 0.231792344, 1.01046945]\n\
+             sellmeier_c = [0.00600069867, 0.0200179144, 103.560653]\n",
+        )
+        .unwrap();
+        let o = m.optical.unwrap();
+        // The Sellmeier law sets n_d (BK7: 1.5168) for the RGB integrators.
+        assert!((o.ior - 1.5168).abs() < 1e-4, "{}", o.ior);
+        assert!(matches!(o.dispersion, Some(Dispersion::Sellmeier { .. })));
+        let m = spec("[materials.crown]\nkind = \"dielectric\"\nior = 1.52\nabbe_number = 58.6\n").unwrap();
+        let law = m.optical.unwrap().dispersion.unwrap();
+        assert!((law.abbe_number() - 58.6).abs() < 1e-9 && m.optical.unwrap().ior == 1.52);
+        for (bad, needle) in [
+            ("abbe_number = 40", "dielectric"),
+            ("kind = \"metal\"\nabbe_number = 40", "dielectric"),
+            (
+                "kind = \"dielectric\"\nabbe_number = 40\nsellmeier_b = [1, 0, 0]\nsellmeier_c = [0, 0, 0]",
+                "not both",
+            ),
+            (
+                "kind = \"dielectric\"\nior = 1.5\nsellmeier_b = [1, 0, 0]\nsellmeier_c = [0, 0, 0]",
+                "either ior",
+            ),
+            ("kind = \"dielectric\"\nsellmeier_c = [0, 0, 0]", "needs sellmeier_b"),
+        ] {
+            let e = spec(&format!("[materials.x]\n{bad}\n")).unwrap_err();
+            assert!(e.contains(needle) && !e.contains('\n'), "{bad}: {e}");
         }
     }
 

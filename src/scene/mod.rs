@@ -3,6 +3,7 @@
 pub mod builtin;
 pub mod check;
 pub mod desc;
+pub mod dispersion;
 pub mod error;
 pub mod instances;
 pub mod itu;
