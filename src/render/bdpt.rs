@@ -221,8 +221,8 @@ pub(super) fn random_walk<R: Uniforms>(
             // ways (Fresnel is reciprocal), rather than pbrt's zero: the MIS ratios' distances
             // and cosines then telescope across a specular chain to the exact ratio of the
             // strategies' densities, as with the generalised geometry term (Veach 1997,
-            // sec. 10.3.5; Georgiev et al. 2012). With zeros, a caustic's eye path that hits
-            // the light kept most of the weight and most of the noise.
+            // sec. 10.3.5). With zeros, a caustic's eye path that hits the light kept most of
+            // the weight and most of the noise.
             path.last_mut().expect("pushed").delta = true;
             pdf_rev = s.pdf;
         }

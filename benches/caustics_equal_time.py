@@ -1,0 +1,136 @@
+#!/usr/bin/env python3
+"""Equal-time RMSE of the light-transport integrators on rooms/caustics (issue 25, point 3).
+
+Renders a path-traced reference as several independent seeds (so its own noise can be
+estimated and taken out of each RMSE), then times each integrator in alternating rounds and
+reports, per integrator, the median wall time, the RMSE against the reference (raw, and with
+the reference's variance subtracted), and the ratio of `path`'s RMSE scaled to the same time
+(`RMSE_path * sqrt(t_path / t)`) over the integrator's. The RMSE is also split between the
+pixels that see a diffuse surface first and those that see the glass ball or the mirror
+(computed from the scene's geometry), where no bidirectional strategy beats the path tracer.
+
+    cargo build --release
+    python3 benches/caustics_equal_time.py --rounds 3
+
+Needs numpy. The reference (8 x 32,768 spp at 32x32) takes about 2 minutes on 2 cores and is
+kept in --workdir for later runs.
+"""
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+SCENE = "rooms/caustics/scene.toml"
+SIZE = 32
+# The scene's camera (rooms/caustics/scene.toml) and specular geometry.
+EYE, TARGET, FOV_DEG = (0.6, 0.03, 0.75), (0.7, 0.7, 0.12), 70.0
+BALL_CENTRE, BALL_RADIUS = (0.62, 0.62, 0.2), 0.2
+MIRROR_X, MIRROR_Y, MIRROR_Z = 1.19, (0.25, 0.95), (0.02, 0.7)
+ROOM = (1.2, 1.2, 1.0)
+
+CONFIGS = {
+    "path": ["--spp", "2048"],
+    "bdpt": ["--spp", "256", "--integrator", "bdpt"],
+    "sppm": ["--integrator", "sppm", "--iterations", "1024", "--photons", "6000", "--sppm-radius", "0.05"],
+    "sppm_3k": ["--integrator", "sppm", "--iterations", "1024", "--photons", "3000", "--sppm-radius", "0.05"],
+    "pssmlt": ["--spp", "1024", "--integrator", "pssmlt"],
+}
+
+
+def render(propsim, out, args, seed):
+    cmd = [propsim, "render", SCENE, "--width", str(SIZE), "--height", str(SIZE), "--seed", str(seed), *args, "-o", out]
+    start = time.perf_counter()
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def specular_mask():
+    """Pixels whose camera ray meets the ball or the mirror before a wall (dilated by one)."""
+    eye = np.array(EYE)
+    f = np.array(TARGET) - eye
+    f /= np.linalg.norm(f)
+    r = np.cross(f, [0.0, 0.0, 1.0])
+    r /= np.linalg.norm(r)
+    u = np.cross(r, f)
+    th = np.tan(np.radians(FOV_DEG) / 2)
+    c = np.array(BALL_CENTRE)
+    m = np.zeros((SIZE, SIZE), bool)
+    for y in range(SIZE):
+        for x in range(SIZE):
+            d = f + (2 * (x + 0.5) / SIZE - 1) * th * r + (1 - 2 * (y + 0.5) / SIZE) * th * u
+            d /= np.linalg.norm(d)
+            hits = []
+            oc = eye - c
+            b, cc = oc @ d, oc @ oc - BALL_RADIUS**2
+            if b * b - cc > 0 and -b - np.sqrt(b * b - cc) > 0:
+                hits.append(-b - np.sqrt(b * b - cc))
+            if d[0] > 0:
+                t = (MIRROR_X - eye[0]) / d[0]
+                p = eye + t * d
+                if MIRROR_Y[0] <= p[1] <= MIRROR_Y[1] and MIRROR_Z[0] <= p[2] <= MIRROR_Z[1]:
+                    hits.append(t)
+            wall = min(
+                t
+                for t in ((-eye[i] / d[i]) if d[i] < 0 else ((ROOM[i] - eye[i]) / d[i]) for i in range(3) if d[i] != 0)
+                if t > 0
+            )
+            m[y, x] = bool(hits) and min(hits) < wall
+    dil = m.copy()
+    dil[1:] |= m[:-1]
+    dil[:-1] |= m[1:]
+    dil[:, 1:] |= m[:, :-1]
+    dil[:, :-1] |= m[:, 1:]
+    return dil
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--propsim", default="target/release/propsim")
+    ap.add_argument("--workdir", default="out/caustics_equal_time")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--ref-seeds", type=int, default=8)
+    ap.add_argument("--ref-spp", type=int, default=32768, help="samples per pixel of each reference seed")
+    a = ap.parse_args()
+    os.makedirs(a.workdir, exist_ok=True)
+    refs = []
+    for k in range(a.ref_seeds):
+        out = os.path.join(a.workdir, f"ref_{a.ref_spp}_{101 + k}.npy")
+        if not os.path.exists(out):
+            print(f"reference seed {101 + k} ({a.ref_spp} spp)...", file=sys.stderr)
+            render(a.propsim, out, ["--spp", str(a.ref_spp)], 101 + k)
+        refs.append(np.load(out))
+    refs = np.array(refs)
+    ref = refs.mean(0)
+    ref_var = refs.var(0, ddof=1).mean(2) / len(refs)  # per pixel, of the reference's mean
+    mask = specular_mask()
+    times = {n: [] for n in CONFIGS}
+    for _ in range(a.rounds):
+        for n, args in CONFIGS.items():
+            times[n].append(render(a.propsim, os.path.join(a.workdir, f"{n}.npy"), args, 1))
+    t_path = statistics.median(times["path"])
+    err = {}
+    for n in CONFIGS:
+        e2 = ((np.load(os.path.join(a.workdir, f"{n}.npy")) - ref) ** 2).mean(2) - ref_var
+        err[n] = e2
+    print(f"reference: {len(refs)} x {a.ref_spp} spp, its own RMSE {np.sqrt(ref_var.mean()):.4f}; "
+          f"{mask.sum()} of {mask.size} pixels see the ball or the mirror first")
+    print("| integrator | median time | RMSE | ratio at equal time | diffuse-seen ratio | specular-seen ratio |")
+    print("|---|---|---|---|---|---|")
+    for n, e2 in err.items():
+        t = statistics.median(times[n])
+
+        def ratio(sel):
+            return np.sqrt(err["path"][sel].mean() * t_path / (max(e2[sel].mean(), 1e-12) * t))
+
+        everything = np.ones_like(mask)
+        print(f"| `{n}` | {t:.2f} s | {np.sqrt(max(e2.mean(), 0)):.4f} | {ratio(everything):.2f} | "
+              f"{ratio(~mask):.2f} | {ratio(mask):.2f} |")
+
+
+if __name__ == "__main__":
+    main()
