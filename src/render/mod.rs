@@ -28,6 +28,7 @@ pub mod job;
 pub mod lanes;
 pub mod light;
 pub mod lights;
+pub mod media;
 pub mod medium;
 pub mod options;
 pub mod path;
@@ -103,7 +104,8 @@ pub enum IntegratorKind {
     Radiosity,
     /// Primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002).
     Pssmlt,
-    /// Volumetric path tracing through a homogeneous fog (`RenderSettings::fog`).
+    /// Volumetric path tracing through a fog (`RenderSettings::fog`) and the scene's
+    /// `[[media]]` (homogeneous or density grids, global or inside closed meshes).
     Volpath,
     /// Ray marching through the same fog ([`raymarch`]): single scattering from the lights
     /// integrated along each segment, for comparison with `volpath`.
@@ -320,6 +322,8 @@ pub struct RenderScene<'a> {
     pub lights: Lights,
     /// Radiance of rays that leave the scene.
     pub background: Vec3,
+    /// The scene's participating media (`[[media]]`; `volpath` and `raymarch` see them).
+    pub media: media::SceneMedia,
     /// The mesh (radiosity patches its triangles).
     mesh: &'a TriangleMesh,
     /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
@@ -352,7 +356,10 @@ impl<'a> RenderScene<'a> {
         let background =
             s.desc.render.as_ref().and_then(|r| r.background).map_or(Vec3::ZERO, Vec3::from).max(Vec3::ZERO);
         let instances = (s.instances.meshes.as_slice(), s.instances.list.as_slice());
-        Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background)
+        let mut scene =
+            Self::with_instances(&world.accel, &s.mesh, &s.spheres, instances, surfaces, &points, background);
+        scene.media = media::SceneMedia::of_world(world);
+        scene
     }
 
     /// A render scene from its parts; `points` are (position, intensity) point lights, the
@@ -396,7 +403,7 @@ impl<'a> RenderScene<'a> {
                 ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
             })
             .collect();
-        Self { accel, surfaces, lights, background, mesh, triangles }
+        Self { accel, surfaces, lights, background, media: media::SceneMedia::default(), mesh, triangles }
     }
 
     /// The scene's triangle mesh (the one `accel` was built from).
@@ -717,6 +724,7 @@ pub fn render_on(
                 surfaces: scene.surfaces.clone(),
                 lights: scene.lights.clone(),
                 background,
+                media: scene.media.clone(),
                 mesh: scene.mesh,
                 triangles: scene.triangles.clone(),
             };

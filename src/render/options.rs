@@ -130,6 +130,13 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
             g: g.unwrap_or(0.0),
         };
         fog.validate().map_err(|e| anyhow!("{e}"))?;
+        if let Some(m) = world.scene.media.iter().find(|m| m.boundary.is_empty()) {
+            anyhow::bail!(
+                "{}: the fog (fog_* or --fog-*) and medium \"{}\" (a [[media]] entry without a boundary) both fill the scene; keep one",
+                world.scene.path.display(),
+                m.name
+            );
+        }
         Some(fog)
     } else {
         None

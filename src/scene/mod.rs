@@ -2,12 +2,14 @@
 
 pub mod builtin;
 pub mod check;
+pub mod density_grid;
 pub mod desc;
 pub mod error;
 pub mod instances;
 pub mod itu;
 pub mod load;
 pub mod materials;
+pub mod media;
 pub mod obj;
 pub mod placement;
 pub mod report;
