@@ -3,10 +3,10 @@
 //! free flights by delta tracking and shadow-ray transmittance by ratio tracking.
 //!
 //! **Delta tracking** (\[Woodcock1965\] in docs/references.md) samples tentative collisions
-//! with a constant majorant `sigma_bar >= sigma_t(x)`, here the grid's largest density times
-//! the largest channel's extinction (one grey majorant over the whole box; \[pbrt-v4\]
-//! sec. 14.2.1 uses a coarse grid of local majorants instead, which is faster in sparse
-//! media and not done here). At a tentative collision at `x` the path scatters with
+//! with a majorant `sigma_bar >= sigma_t(x)`: here, in each cell of a coarse 16^3 grid over
+//! the density grid's box, the largest density the cell can take times the largest channel's
+//! extinction (grey local majorants, walked by a DDA as \[pbrt-v4\] sec. 14.2.1 does; the
+//! exponential's memorylessness lets a flight restart at each cell border). At a tentative collision at `x` the path scatters with
 //! probability `P_s = avg(sigma_s(x)) / (avg(sigma_s(x)) + avg(sigma_n(x)))`, the null
 //! coefficient being `sigma_n = sigma_bar - sigma_t(x)` per channel, and otherwise flies on;
 //! the throughput is multiplied by `sigma_s / (sigma_bar P_s)` or `sigma_n / (sigma_bar
@@ -76,37 +76,47 @@ impl Volume {
         let Some(grid) = &self.grid else {
             return self.medium.sample_flight(t_max, sampler.get_1d(), sampler.get_1d());
         };
-        let through = Flight { t: t_max, scattered: false, weight: Vec3::ONE };
+        let mut flight = Flight { t: t_max, scattered: false, weight: Vec3::ONE };
         let Some((t0, t1)) = grid.clip(ray, t_max) else {
-            return through;
+            return flight;
         };
-        let sigma_bar = self.majorant_per_m();
-        if !(sigma_bar > 0.0) {
-            return through;
-        }
         let (sigma_s, sigma_t) = (self.medium.sigma_s_per_m, self.medium.sigma_t_per_m());
-        let mut weight = Vec3::ONE;
-        let mut t = t0;
-        for _ in 0..MAX_COLLISIONS {
-            t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
-            if t >= t1 {
-                return Flight { t: t_max, scattered: false, weight };
+        let sigma_max = sigma_t.max_element();
+        let mut collisions = 0u32;
+        grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
+            let sigma_bar = majorant * sigma_max;
+            if !(sigma_bar > 0.0) {
+                return false;
             }
-            let d = grid.density(ray.at(t));
-            let s = sigma_s * d;
-            let n = (Vec3::splat(sigma_bar) - sigma_t * d).max(Vec3::ZERO);
-            let (ps, pn) = (s.element_sum(), n.element_sum());
-            if ps + pn <= 0.0 {
-                return Flight { t, scattered: false, weight: Vec3::ZERO };
+            let mut t = start;
+            loop {
+                collisions += 1;
+                if collisions > MAX_COLLISIONS {
+                    flight.weight = Vec3::ZERO;
+                    return true;
+                }
+                t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
+                if t >= end {
+                    return false;
+                }
+                let d = grid.density(ray.at(t));
+                let s = sigma_s * d;
+                let n = (Vec3::splat(sigma_bar) - sigma_t * d).max(Vec3::ZERO);
+                let (ps, pn) = (s.element_sum(), n.element_sum());
+                if ps + pn <= 0.0 {
+                    flight = Flight { t, scattered: false, weight: Vec3::ZERO };
+                    return true;
+                }
+                let p_scatter = ps / (ps + pn);
+                if sampler.get_1d() < p_scatter {
+                    flight =
+                        Flight { t, scattered: true, weight: flight.weight * s / (sigma_bar * p_scatter) };
+                    return true;
+                }
+                flight.weight *= n / (sigma_bar * (1.0 - p_scatter));
             }
-            let p_scatter = ps / (ps + pn);
-            if sampler.get_1d() < p_scatter {
-                weight *= s / (sigma_bar * p_scatter);
-                return Flight { t, scattered: true, weight };
-            }
-            weight *= n / (sigma_bar * (1.0 - p_scatter));
-        }
-        Flight { t: t_max, scattered: false, weight: Vec3::ZERO }
+        });
+        flight
     }
 
     /// The transmittance along `ray` (unit direction) over `[0, t_max]`: Beer-Lambert for a
@@ -118,25 +128,34 @@ impl Volume {
         let Some((t0, t1)) = grid.clip(ray, t_max) else {
             return Vec3::ONE;
         };
-        let sigma_bar = self.majorant_per_m();
-        if !(sigma_bar > 0.0) {
-            return Vec3::ONE;
-        }
         let sigma_t = self.medium.sigma_t_per_m();
+        let sigma_max = sigma_t.max_element();
         let mut tr = Vec3::ONE;
-        let mut t = t0;
-        for _ in 0..MAX_COLLISIONS {
-            t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
-            if t >= t1 {
-                return tr;
+        let mut collisions = 0u32;
+        grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
+            let sigma_bar = majorant * sigma_max;
+            if !(sigma_bar > 0.0) {
+                return false;
             }
-            let d = grid.density(ray.at(t));
-            tr *= (Vec3::ONE - sigma_t * (d / sigma_bar)).max(Vec3::ZERO);
-            if tr == Vec3::ZERO {
-                return tr;
+            let mut t = start;
+            loop {
+                collisions += 1;
+                if collisions > MAX_COLLISIONS {
+                    tr = Vec3::ZERO;
+                    return true;
+                }
+                t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
+                if t >= end {
+                    return false;
+                }
+                let d = grid.density(ray.at(t));
+                tr *= (Vec3::ONE - sigma_t * (d / sigma_bar)).max(Vec3::ZERO);
+                if tr == Vec3::ZERO {
+                    return true;
+                }
             }
-        }
-        Vec3::ZERO
+        });
+        tr
     }
 }
 
