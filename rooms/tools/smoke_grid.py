@@ -39,7 +39,7 @@ def value_noise(x, y, z, octave):
 
 def density(x, y, z):
     """x, y, z in [0, 1]: a plume rising along z, wider at the top, broken up by noise."""
-    r_max = 0.12 + 0.3 * z
+    r_max = 0.1 + 0.25 * z
     r = math.hypot(x - 0.5, y - 0.5)
     envelope = max(0.0, 1.0 - (r / r_max) ** 2) * max(0.0, min(1.0, 6 * z)) * max(0.0, min(1.0, 6 * (1 - z)))
     noise = sum(value_noise(4 * 2**o * x, 4 * 2**o * y, 4 * 2**o * z, o) / 2**o for o in range(3)) / 1.75

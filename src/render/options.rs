@@ -39,8 +39,9 @@ pub struct RenderOptions {
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
     /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
-    /// volpath (volumetric path tracing through a fog, --fog-*) or raymarch (ray marching
-    /// through the fog, single scattering) (default: the scene's, else path).
+    /// volpath (volumetric path tracing through a fog, --fog-*, and the scene's [[media]])
+    /// or raymarch (ray marching through the same media, single scattering) (default: the
+    /// scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Random seed: the same seed gives the same image for any thread count.

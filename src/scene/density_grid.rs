@@ -157,7 +157,7 @@ impl DensityGrid {
 
 impl DensityGrid {
     /// Walks `ray` (unit direction) through the majorant cells over `[t0, t1]` (inside the
-    /// box, from [`DensityGrid::clip`]) by a 3-D DDA (Amanatides and Woo 1987, as pbrt-v4's
+    /// box, from [`DensityGrid::clip`]) by a 3-D DDA (\[Amanatides1987\], as pbrt-v4's
     /// `DDAMajorantIterator`), calling `visit(t_start, t_end, majorant_density)` for each
     /// stretch in order until it returns true.
     pub fn majorant_segments(
