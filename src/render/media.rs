@@ -85,7 +85,7 @@ impl Volume {
         let mut collisions = 0u32;
         grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
             let sigma_bar = majorant * sigma_max;
-            if !(sigma_bar > 0.0) {
+            if sigma_bar.is_nan() || sigma_bar <= 0.0 {
                 return false;
             }
             let mut t = start;
@@ -134,7 +134,7 @@ impl Volume {
         let mut collisions = 0u32;
         grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
             let sigma_bar = majorant * sigma_max;
-            if !(sigma_bar > 0.0) {
+            if sigma_bar.is_nan() || sigma_bar <= 0.0 {
                 return false;
             }
             let mut t = start;
