@@ -365,6 +365,10 @@ catalogue! {
     media_unknown_boundary: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\nboundary = \"glass_box\"\n")],
         &["{dir}/s.toml", "medium \"smoke\"", "\"glass_box\" is no usemtl"]);
+    raymarch_step_zero: case(&["render", "{shoebox}", "-o", "{out}/r.png", "--integrator", "raymarch", "--raymarch-step", "0"],
+        &["raymarch step 0", "above 0"]);
+    raymarch_step_with_path: case(&["render", "{shoebox}", "-o", "{out}/r.png", "--raymarch-step", "0.01"],
+        &["--raymarch-step", "raymarch", "not path"]);
     media_and_fog_both_fill_the_scene: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png", "--integrator", "volpath", "--fog-sigma-s", "1,1,1"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\n")],
         &["{dir}/s.toml", "\"smoke\"", "both fill the scene"]);

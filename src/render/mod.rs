@@ -202,6 +202,8 @@ pub struct RenderSettings {
     pub mlt: pssmlt::MltOptions,
     /// A homogeneous fog filling the scene, seen by `volpath` and `raymarch` (the others ignore it).
     pub fog: Option<medium::Medium>,
+    /// The ray marcher's step, metres (`None`: [`raymarch::step_m`]'s default); `raymarch` only.
+    pub raymarch_step_m: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -220,6 +222,7 @@ impl Default for RenderSettings {
             radiosity: radiosity::RadiosityOptions::default(),
             mlt: pssmlt::MltOptions::default(),
             fog: None,
+            raymarch_step_m: None,
         }
     }
 }
@@ -242,6 +245,11 @@ impl RenderSettings {
             && !(b.is_finite() && b.min_element() >= 0.0)
         {
             return Err(format!("background {b} must be finite and non-negative"));
+        }
+        if let Some(h) = self.raymarch_step_m
+            && !(h.is_finite() && h > 0.0)
+        {
+            return Err(format!("raymarch step {h} m: must be a finite length above 0"));
         }
         if let Some(c) = self.clamp_indirect
             && !(c.is_finite() && c >= 0.0)
@@ -661,7 +669,8 @@ fn render_pixel(
                 volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
             }
             None if s.integrator == IntegratorKind::Raymarch => {
-                raymarch::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
+                let fog = s.fog.as_ref();
+                raymarch::li(scene, ray, s.max_depth, &mut sampler, rays, fog, s.raymarch_step_m)
             }
             None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
         };

@@ -52,18 +52,26 @@ pub const ESCAPE_TRANSMITTANCE: f32 = 1e-4;
 /// The step along a segment of `length_m` in `fog`, metres:
 /// `STEP_MEAN_FREE_PATHS / max sigma_t`, kept within `[length / MAX_STEPS, length / MIN_STEPS]`.
 pub fn step_m(fog: &Medium, length_m: f32) -> f32 {
-    step_for(fog.sigma_t_per_m().max_element(), length_m)
+    step_for(fog.sigma_t_per_m().max_element(), length_m, None)
 }
 
-/// The step for a largest extinction (or majorant) `sigma_max_per_m` along `length_m`.
-fn step_for(sigma_max_per_m: f32, length_m: f32) -> f32 {
+/// Most steps a segment takes with a step given by the user (`--raymarch-step`): a longer
+/// segment takes longer steps.
+pub const MAX_USER_STEPS: f32 = 65_536.0;
+
+/// The step for a largest extinction (or majorant) `sigma_max_per_m` along `length_m`, or
+/// the user's `step_m` (at least `length_m / MAX_USER_STEPS`).
+fn step_for(sigma_max_per_m: f32, length_m: f32, step_m: Option<f32>) -> f32 {
+    if let Some(h) = step_m {
+        return h.max(length_m / MAX_USER_STEPS);
+    }
     let mfp = STEP_MEAN_FREE_PATHS / sigma_max_per_m.max(f32::MIN_POSITIVE);
     mfp.min(length_m / MIN_STEPS).max(length_m / MAX_STEPS)
 }
 
 /// The radiance along camera ray `ray` through `fog` and the scene's media (neither: the
 /// path tracer's estimate), with at most `max_depth` bounces; a march along a segment counts
-/// as one bounce.
+/// as one bounce. `step_m` overrides the default step ([`step_m`]).
 pub fn li(
     scene: &RenderScene,
     mut ray: Ray,
@@ -71,6 +79,7 @@ pub fn li(
     sampler: &mut Sampler,
     rays: &mut u64,
     fog: Option<&Medium>,
+    step_m: Option<f32>,
 ) -> Vec3 {
     let fog_volume = fog.map(|m| Volume::homogeneous(*m));
     let media = PathMedia::new(&scene.media, fog_volume.as_ref());
@@ -88,7 +97,7 @@ pub fn li(
         if let Some(m) = current {
             let t_max = hit.map_or(f32::INFINITY, |h| h.t);
             if depth < max_depth {
-                let (light, tr) = march(scene, &media, m, &ray, t_max, sampler, rays);
+                let (light, tr) = march(scene, &media, m, &ray, t_max, step_m, sampler, rays);
                 l += beta * light;
                 beta *= tr;
             } else {
@@ -129,27 +138,27 @@ pub fn li(
 /// The light from the lights scattered once into `ray` over `[0, t_max)` (infinite: the ray
 /// leaves the scene), by the jittered march of the module documentation, and the
 /// transmittance over the segment.
+#[allow(clippy::too_many_arguments)]
 fn march<'a>(
     scene: &RenderScene,
     media: &PathMedia<'a>,
     m: &'a Volume,
     ray: &Ray,
     t_max: f32,
+    step_m: Option<f32>,
     sampler: &mut Sampler,
     rays: &mut u64,
 ) -> (Vec3, Vec3) {
     let Some(grid) = &m.grid else {
-        return (
-            march_homogeneous(scene, media, m, ray, t_max, sampler, rays),
-            m.medium.transmittance(t_max),
-        );
+        let light = march_homogeneous(scene, media, m, ray, t_max, step_m, sampler, rays);
+        return (light, m.medium.transmittance(t_max));
     };
     let Some((t0, t1)) = grid.clip(ray, t_max) else {
         return (Vec3::ZERO, Vec3::ONE);
     };
     let (sigma_s, sigma_t) = (m.medium.sigma_s_per_m, m.medium.sigma_t_per_m());
     let length_m = t1 - t0;
-    let h = step_for(m.majorant_per_m(), length_m);
+    let h = step_for(m.majorant_per_m(), length_m, step_m);
     let mut sum = Vec3::ZERO;
     // The optical depth at the current point, per channel at density 1 (times sigma_t).
     let mut t = t0 + sampler.get_1d() * h;
@@ -182,12 +191,14 @@ fn march<'a>(
 }
 
 /// [`march`] in a homogeneous medium (the transmittance closed form).
+#[allow(clippy::too_many_arguments)]
 fn march_homogeneous<'a>(
     scene: &RenderScene,
     media: &PathMedia<'a>,
     m: &'a Volume,
     ray: &Ray,
     t_max: f32,
+    step_m: Option<f32>,
     sampler: &mut Sampler,
     rays: &mut u64,
 ) -> Vec3 {
@@ -206,7 +217,7 @@ fn march_homogeneous<'a>(
     if medium.sigma_s_per_m == Vec3::ZERO || !(length_m > 0.0 && length_m.is_finite()) {
         return Vec3::ZERO;
     }
-    let h = step_m(medium, length_m);
+    let h = step_for(sigma_t.max_element(), length_m, step_m);
     let mut sum = Vec3::ZERO;
     let mut t = sampler.get_1d() * h;
     while t < length_m {
