@@ -228,8 +228,9 @@ fn load(dir: &std::path::Path, obj: &str, toml: &str) -> World {
 /// behind the camera gives `rho / pi I / d^2 exp(-sigma_a 1 m)` (the camera ray and the
 /// shadow ray each cross the slab once, so the shadow ray must pass the interfaces and take
 /// the slab's transmittance), for a homogeneous medium and for a constant grid filling the
-/// slab (ratio tracking). With `interface = false` the slab's own opaque material hides the
-/// emitter (the test can fail).
+/// slab (ratio tracking); a camera inside the slab sees the emitter through its remaining
+/// 0.25 m. With `interface = false` the slab's own opaque material hides the emitter (the
+/// test can fail).
 #[test]
 fn a_medium_inside_a_closed_mesh_follows_beer_lambert() {
     let dir = tempfile::tempdir().unwrap();
@@ -266,6 +267,18 @@ fn a_medium_inside_a_closed_mesh_follows_beer_lambert() {
         for c in 0..3 {
             assert!((mean[c] / expect[c] - 1.0).abs() < 0.015, "channel {c}: {mean} vs {expect}");
         }
+    }
+    // The camera inside the slab, 0.25 m from its far face: the medium around the eye is
+    // found by the parity of the boundary faces, so the emitter is dimmed by exp(-sigma_a 0.25 m).
+    let world = load(dir.path(), &slab_obj("lamp"), &format!("obj = \"s.obj\"\n{medium}"));
+    let inside =
+        Camera::look_at(Vec3::new(0.0, 1.25, 0.0), Vec3::new(0.0, 2.0, 0.0), Vec3::Z, 1.0, 1.0).unwrap();
+    let mean =
+        go(&RenderScene::new(&world), &inside, &settings(16, 256, 1, IntegratorKind::Volpath, 5)).mean();
+    let expect = Vec3::new(1.0, 2.0, 3.0) * (-sigma_a * 0.25).exp();
+    eprintln!("emitter seen from inside the slab: {mean} vs {expect}");
+    for c in 0..3 {
+        assert!((mean[c] / expect[c] - 1.0).abs() < 0.015, "channel {c}: {mean} vs {expect}");
     }
     let opaque = format!("obj = \"s.obj\"\n{medium}interface = false\n");
     let world = load(dir.path(), &slab_obj("lamp"), &opaque);

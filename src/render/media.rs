@@ -200,6 +200,29 @@ impl SceneMedia {
         self.volumes.is_empty()
     }
 
+    /// The bounded medium whose boundary encloses `p` (none: outside every boundary), by the
+    /// parity of the boundary faces a ray from `p` crosses (in a fixed, skew direction, so
+    /// that it meets no edge of an axis-aligned mesh). Media do not nest: the first with an
+    /// odd count is taken. For the camera, once a render.
+    pub fn enclosing(&self, scene: &RenderScene, p: Vec3) -> Option<usize> {
+        if self.inside.iter().all(Option::is_none) {
+            return None;
+        }
+        let mut odd = vec![false; self.volumes.len()];
+        let dir = Vec3::new(0.5377, 0.3461, 0.7692).normalize();
+        let mut ray = Ray::new(p, dir);
+        for _ in 0..4 * MAX_CROSSINGS {
+            let Some(hit) = scene.intersect(&ray) else {
+                break;
+            };
+            if let Some((k, _)) = self.inside_of(hit.surface) {
+                odd[k] = !odd[k];
+            }
+            ray = Ray::spawn(hit.point, hit.normal, dir);
+        }
+        odd.iter().position(|&o| o)
+    }
+
     /// The medium inside `surface` and whether it is an interface.
     #[inline]
     pub fn inside_of(&self, surface: u32) -> Option<(usize, bool)> {
@@ -222,6 +245,13 @@ impl<'a> PathMedia<'a> {
     /// when the scene has no global medium.
     pub fn new(scene: &'a SceneMedia, fog: Option<&'a Volume>) -> Self {
         Self { scene, outer: scene.global.map(|i| &scene.volumes[i]).or(fog) }
+    }
+
+    /// The medium a camera ray starts in: the bounded medium `camera` (from
+    /// [`SceneMedia::enclosing`]), else the outer one.
+    #[inline]
+    pub fn start(&self, camera: Option<usize>) -> Option<&'a Volume> {
+        camera.and_then(|k| self.scene.volumes.get(k)).or(self.outer)
     }
 
     /// True when no medium is heterogeneous or bounded (the closed forms and plain shadow

@@ -639,6 +639,7 @@ pub fn radiance(
 /// Renders pixel `(x, y)`: the box-filtered mean of `spp` samples, Owen-scrambled Sobol
 /// points for the Monte Carlo integrators ([`sampler`]), the pixel centre for the others.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn render_pixel(
     scene: &RenderScene,
     camera: &Camera,
@@ -647,6 +648,7 @@ fn render_pixel(
     y: u32,
     rays: &mut u64,
     solution: Option<&radiosity::Solution>,
+    camera_medium: Option<usize>,
 ) -> Vec3 {
     let (mut rng, pixel_seed) = pixel_stream(s, x, y);
     let jitter = s.integrator.jitters();
@@ -666,11 +668,20 @@ fn render_pixel(
                 scene.intersect(&ray).map_or(scene.background, |hit| sol.radiance(&hit))
             }
             None if s.integrator == IntegratorKind::Volpath => {
-                volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
+                volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref(), camera_medium)
             }
             None if s.integrator == IntegratorKind::Raymarch => {
                 let fog = s.fog.as_ref();
-                raymarch::li(scene, ray, s.max_depth, &mut sampler, rays, fog, s.raymarch_step_m)
+                raymarch::li(
+                    scene,
+                    ray,
+                    s.max_depth,
+                    &mut sampler,
+                    rays,
+                    fog,
+                    camera_medium,
+                    s.raymarch_step_m,
+                )
             }
             None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
         };
@@ -762,6 +773,11 @@ pub fn render_on(
         .collect();
     let mine: Vec<(u32, u32)> =
         tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    // The bounded medium around the eye, if any (volpath and raymarch).
+    let camera_medium = match settings.integrator {
+        IntegratorKind::Volpath | IntegratorKind::Raymarch => scene.media.enclosing(scene, camera.eye),
+        _ => None,
+    };
     let use_lanes = lanes::applies(scene, settings) && std::env::var_os("PROPSIM_NO_LANES").is_none();
     let done: Vec<(Vec<Vec3>, u64)> = mine
         .par_iter()
@@ -774,7 +790,16 @@ pub fn render_on(
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays, solution.as_ref()));
+                        px.push(render_pixel(
+                            scene,
+                            camera,
+                            settings,
+                            x,
+                            y,
+                            &mut rays,
+                            solution.as_ref(),
+                            camera_medium,
+                        ));
                     }
                 }
                 px

@@ -71,7 +71,9 @@ fn step_for(sigma_max_per_m: f32, length_m: f32, step_m: Option<f32>) -> f32 {
 
 /// The radiance along camera ray `ray` through `fog` and the scene's media (neither: the
 /// path tracer's estimate), with at most `max_depth` bounces; a march along a segment counts
-/// as one bounce. `step_m` overrides the default step ([`step_m`]).
+/// as one bounce. The camera ray starts in `camera_medium` as in [`super::volpath::li`];
+/// `step_m` overrides the default step ([`step_m`]).
+#[allow(clippy::too_many_arguments)]
 pub fn li(
     scene: &RenderScene,
     mut ray: Ray,
@@ -79,11 +81,12 @@ pub fn li(
     sampler: &mut Sampler,
     rays: &mut u64,
     fog: Option<&Medium>,
+    camera_medium: Option<usize>,
     step_m: Option<f32>,
 ) -> Vec3 {
     let fog_volume = fog.map(|m| Volume::homogeneous(*m));
     let media = PathMedia::new(&scene.media, fog_volume.as_ref());
-    let mut current = media.outer;
+    let mut current = media.start(camera_medium);
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut specular = true;

@@ -20,7 +20,8 @@ use crate::core::{Hit, Ray};
 
 /// The radiance along camera ray `ray` through `fog` (outside the scene's own media; `None`
 /// and no media: the plain path tracer's estimate), with at most `max_depth` bounces,
-/// scatterings in the medium included. The camera is taken to be outside every boundary.
+/// scatterings in the medium included. The camera ray starts in the bounded medium
+/// `camera_medium` ([`super::media::SceneMedia::enclosing`] the eye), else the outer one.
 pub fn li(
     scene: &RenderScene,
     mut ray: Ray,
@@ -28,10 +29,11 @@ pub fn li(
     sampler: &mut Sampler,
     rays: &mut u64,
     fog: Option<&Medium>,
+    camera_medium: Option<usize>,
 ) -> Vec3 {
     let fog_volume = fog.map(|m| Volume::homogeneous(*m));
     let media = PathMedia::new(&scene.media, fog_volume.as_ref());
-    let mut current = media.outer;
+    let mut current = media.start(camera_medium);
     let mut l = Vec3::ZERO;
     let mut beta = Vec3::ONE;
     let mut specular = true;
