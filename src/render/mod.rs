@@ -1,7 +1,7 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
 //! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
-//! `ppm`, Metropolis light transport `pssmlt`, and the view-independent `radiosity`) over the
-//! shared tracing core.
+//! `ppm`, Metropolis light transport `pssmlt`, the view-independent `radiosity`, and through
+//! participating media `volpath` and `raymarch`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -107,8 +107,8 @@ pub enum IntegratorKind {
     /// Volumetric path tracing through a fog (`RenderSettings::fog`) and the scene's
     /// `[[media]]` (homogeneous or density grids, global or inside closed meshes).
     Volpath,
-    /// Ray marching through the same fog ([`raymarch`]): single scattering from the lights
-    /// integrated along each segment, for comparison with `volpath`.
+    /// Ray marching through the same fog and media ([`raymarch`]): single scattering from
+    /// the lights integrated along each segment, for comparison with `volpath`.
     Raymarch,
 }
 
