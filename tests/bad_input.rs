@@ -357,4 +357,42 @@ catalogue! {
     instance_nested_scene: with_files(&["info", "{dir}/s.toml"],
         &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[instances]]\nname = \"me\"\nmesh = \"s.toml\"\n")],
         &["{dir}/s.toml", "instance \"me\"", "do not nest"]);
+    // Participating media (issue 26): density grids and [[media]] entries.
+    media_grid_missing: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n")],
+        &["g.txt", "not found", "smoke"]);
+    media_grid_wrong_count: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "2 2 2\n1 1 1\n")],
+        &["g.txt", "3 densities", "expected 8"]);
+    media_grid_empty: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "0 4 4\n")],
+        &["g.txt", "empty density grid"]);
+    media_grid_negative: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "1 1 2\n0.5 -1\n")],
+        &["g.txt", "number 2 is -1", "0 or more"]);
+    media_grid_nan: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "1 1 1\nnan\n")],
+        &["g.txt", "NaN", "finite"]);
+    media_grid_huge: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 0]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "100000 100000 100000\n")],
+        &["g.txt", "more than"]);
+    media_grid_raw_wrong_size: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.raw\"\ngrid_dims = [2, 2, 2]\nbounds_min = [0, 0, 0]\nbounds_max = [1, 1, 1]\n"), File::Bytes("g.raw", &[0, 0, 0, 0, 0])],
+        &["g.raw", "5 bytes", "expected 32"]);
+    media_bounds_inverted: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\ngrid = \"g.txt\"\nbounds_min = [0, 0, 3]\nbounds_max = [4, 3, 2.5]\n"), File::Text("g.txt", "1 1 1\n1\n")],
+        &["g.txt", "bounds_min", "below bounds_max"]);
+    media_negative_coefficient: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_a = [0.1, -1, 0]\n")],
+        &["{dir}/s.toml", "medium \"smoke\"", "sigma_a"]);
+    media_unknown_boundary: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\nboundary = \"glass_box\"\n")],
+        &["{dir}/s.toml", "medium \"smoke\"", "\"glass_box\" is no usemtl"]);
+    raymarch_step_zero: case(&["render", "{shoebox}", "-o", "{out}/r.png", "--integrator", "raymarch", "--raymarch-step", "0"],
+        &["raymarch step 0", "above 0"]);
+    raymarch_step_with_path: case(&["render", "{shoebox}", "-o", "{out}/r.png", "--raymarch-step", "0.01"],
+        &["--raymarch-step", "raymarch", "not path"]);
+    media_and_fog_both_fill_the_scene: with_files(&["render", "{dir}/s.toml", "-o", "{out}/r.png", "--integrator", "volpath", "--fog-sigma-s", "1,1,1"],
+        &[File::Text("box.obj", BOX_OBJ), File::Text("s.toml", "obj = \"box.obj\"\n[[media]]\nname = \"smoke\"\nsigma_s = [1, 1, 1]\n")],
+        &["{dir}/s.toml", "\"smoke\"", "both fill the scene"]);
 }

@@ -352,6 +352,36 @@ fn fuzz_scene_toml_loader() {
     });
 }
 
+/// Density grids (`[[media]]`, issue 26): the text format mutated from rooms/smoke's grid,
+/// then queried (densities at points in and around the box, the majorant walk).
+#[test]
+fn fuzz_density_grid_loader() {
+    use propsim::scene::density_grid::{DensityGrid, parse_raw, parse_text};
+    let seed_text = read(&Path::new(ROOMS).join("smoke").join("smoke.txt"));
+    let lines = all_lines(std::slice::from_ref(&seed_text));
+    fuzz("density grid", cases(), |seed| {
+        let mut rng = Rng::new(seed ^ 0x6d1d);
+        let text = mutate(&mut rng, &seed_text, &lines);
+        let _ = parse_raw(&text, [4, 4, (text.len() / 64).max(1)]);
+        let Ok((dims, values)) = parse_text(&String::from_utf8_lossy(&text)) else { return };
+        let Ok(grid) = DensityGrid::new(dims, values, glam::Vec3::ZERO, glam::Vec3::new(1.0, 2.0, 0.5))
+        else {
+            return;
+        };
+        for k in 0..8 {
+            let o = glam::Vec3::new(k as f32 * 0.3 - 1.0, 1.0, 0.25);
+            let ray = Ray::new(o, glam::Vec3::new(1.0, (k as f32 - 4.0) * 0.2, 0.1).normalize());
+            let _ = grid.density(ray.at(k as f32 * 0.2));
+            if let Some((t0, t1)) = grid.clip(&ray, 10.0) {
+                grid.majorant_segments(&ray, t0, t1, |_, _, m| {
+                    assert!(m.is_finite() && m >= 0.0);
+                    false
+                });
+            }
+        }
+    });
+}
+
 #[test]
 fn fuzz_materials_toml_loader() {
     let library = propsim::scene::materials::BUILTIN_LIBRARY_TOML.as_bytes().to_vec();

@@ -228,8 +228,8 @@ fn mpi_light_transport_integrators_are_byte_identical_for_1_2_and_3_ranks() {
 #[test]
 fn mpi_radiosity_fields_fog_prism_and_bent_rays_are_byte_identical_for_1_2_and_3_ranks() {
     // Radiosity (every rank solves the same system), signed distance fields (path traced),
-    // the fog (volpath), the prism (spectral), and the acoustic rays bent at the showcase's
-    // corner edge.
+    // the fog (volpath), the prism (spectral), the smoke's density grid and ink cube (volpath,
+    // raymarch), and the acoustic rays bent at the showcase's corner edge.
     for (name, scene, integrator, extra) in [
         (
             "radiosity",
@@ -240,6 +240,8 @@ fn mpi_radiosity_fields_fog_prism_and_bent_rays_are_byte_identical_for_1_2_and_3
         ("sdf", "rooms/sdf/scene.toml", "path", &[][..]),
         ("volpath", "rooms/fog/scene.toml", "volpath", &[][..]),
         ("spectral", "rooms/prism/scene.toml", "spectral", &[][..]),
+        ("smoke-volpath", "rooms/smoke/scene.toml", "volpath", &[][..]),
+        ("smoke-raymarch", "rooms/smoke/scene.toml", "raymarch", &[][..]),
     ] {
         let scene = format!("{MANIFEST_DIR}/{scene}");
         let mut args = vec!["render", &scene, "--integrator", integrator, "-o", "out/render.exr"];

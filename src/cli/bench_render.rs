@@ -47,6 +47,7 @@ pub fn run(args: &BenchRenderArgs) -> anyhow::Result<()> {
         background: None,
         display: Default::default(),
         clamp_indirect: None,
+        raymarch_step_m: None,
         photons: Default::default(),
         radiosity: Default::default(),
         mlt: Default::default(),

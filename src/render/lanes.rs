@@ -474,7 +474,7 @@ mod tests {
                 let mut scalar = Vec::new();
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        scalar.push(render_pixel(&scene, &camera, &s, x, y, &mut rays[1], None));
+                        scalar.push(render_pixel(&scene, &camera, &s, x, y, &mut rays[1], None, None));
                     }
                 }
                 let bits =
@@ -494,7 +494,7 @@ mod tests {
         let mut rays = [0u64; 2];
         let lanes = render_tile(&unlit, &pinhole, &s, (0, 0, 16, 16), &mut rays[0]);
         let scalar: Vec<Vec3> = (0..256)
-            .map(|k| render_pixel(&unlit, &pinhole, &s, k % 16, k / 16, &mut rays[1], None))
+            .map(|k| render_pixel(&unlit, &pinhole, &s, k % 16, k / 16, &mut rays[1], None, None))
             .collect();
         assert!(
             lanes

@@ -1,7 +1,7 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
 //! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
-//! `ppm`, Metropolis light transport `pssmlt`, and the view-independent `radiosity`) over the
-//! shared tracing core.
+//! `ppm`, Metropolis light transport `pssmlt`, the view-independent `radiosity`, and through
+//! participating media `volpath` and `raymarch`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
 //! from its own stream `rng::stream(seed, PIXEL_DOMAIN, i)`, so the image is bit-identical for
@@ -28,6 +28,7 @@ pub mod job;
 pub mod lanes;
 pub mod light;
 pub mod lights;
+pub mod media;
 pub mod medium;
 pub mod options;
 pub mod path;
@@ -106,10 +107,11 @@ pub enum IntegratorKind {
     Radiosity,
     /// Primary-sample-space Metropolis light transport over BDPT (Kelemen et al. 2002).
     Pssmlt,
-    /// Volumetric path tracing through a homogeneous fog (`RenderSettings::fog`).
+    /// Volumetric path tracing through a fog (`RenderSettings::fog`) and the scene's
+    /// `[[media]]` (homogeneous or density grids, global or inside closed meshes).
     Volpath,
-    /// Ray marching through the same fog ([`raymarch`]): single scattering from the lights
-    /// integrated along each segment, for comparison with `volpath`.
+    /// Ray marching through the same fog and media ([`raymarch`]): single scattering from
+    /// the lights integrated along each segment, for comparison with `volpath`.
     Raymarch,
     /// Spectral path tracing ([`spectral`]): four wavelengths a path, RGB colours up-sampled
     /// to spectra, dispersive glass.
@@ -214,6 +216,8 @@ pub struct RenderSettings {
     pub mlt: pssmlt::MltOptions,
     /// A homogeneous fog filling the scene, seen by `volpath` and `raymarch` (the others ignore it).
     pub fog: Option<medium::Medium>,
+    /// The ray marcher's step, metres (`None`: [`raymarch::step_m`]'s default); `raymarch` only.
+    pub raymarch_step_m: Option<f32>,
 }
 
 impl Default for RenderSettings {
@@ -232,6 +236,7 @@ impl Default for RenderSettings {
             radiosity: radiosity::RadiosityOptions::default(),
             mlt: pssmlt::MltOptions::default(),
             fog: None,
+            raymarch_step_m: None,
         }
     }
 }
@@ -254,6 +259,11 @@ impl RenderSettings {
             && !(b.is_finite() && b.min_element() >= 0.0)
         {
             return Err(format!("background {b} must be finite and non-negative"));
+        }
+        if let Some(h) = self.raymarch_step_m
+            && !(h.is_finite() && h > 0.0)
+        {
+            return Err(format!("raymarch step {h} m: must be a finite length above 0"));
         }
         if let Some(c) = self.clamp_indirect
             && !(c.is_finite() && c >= 0.0)
@@ -337,6 +347,8 @@ pub struct RenderScene<'a> {
     /// Each surface's dispersion law, by surface id (glass with `sellmeier_*` or
     /// `abbe_number`; seen by the spectral integrator only). Empty when none disperses.
     pub dispersion: Vec<Option<Dispersion>>,
+    /// The scene's participating media (`[[media]]`; `volpath` and `raymarch` see them).
+    pub media: media::SceneMedia,
     /// The mesh (radiosity patches its triangles).
     mesh: &'a TriangleMesh,
     /// Unit geometric normal (as wound) and surface of each mesh triangle, by mesh index:
@@ -381,6 +393,7 @@ impl<'a> RenderScene<'a> {
         if dispersion.iter().any(Option::is_some) {
             scene.dispersion = dispersion;
         }
+        scene.media = media::SceneMedia::of_world(world);
         scene
     }
 
@@ -425,7 +438,16 @@ impl<'a> RenderScene<'a> {
                 ((b - a).cross(c - a).normalize_or_zero(), mesh.surface_of_triangle[i])
             })
             .collect();
-        Self { accel, surfaces, lights, background, dispersion: Vec::new(), mesh, triangles }
+        Self {
+            accel,
+            surfaces,
+            lights,
+            background,
+            dispersion: Vec::new(),
+            media: media::SceneMedia::default(),
+            mesh,
+            triangles,
+        }
     }
 
     /// The scene's triangle mesh (the one `accel` was built from).
@@ -654,6 +676,7 @@ pub fn radiance(
 /// Renders pixel `(x, y)`: the box-filtered mean of `spp` samples, Owen-scrambled Sobol
 /// points for the Monte Carlo integrators ([`sampler`]), the pixel centre for the others.
 #[inline]
+#[allow(clippy::too_many_arguments)]
 fn render_pixel(
     scene: &RenderScene,
     camera: &Camera,
@@ -662,6 +685,7 @@ fn render_pixel(
     y: u32,
     rays: &mut u64,
     aid: Option<&PixelAid>,
+    camera_medium: Option<usize>,
 ) -> Vec3 {
     let (mut rng, pixel_seed) = pixel_stream(s, x, y);
     let jitter = s.integrator.jitters();
@@ -687,10 +711,20 @@ fn render_pixel(
                 spectral::li(scene, spectra, ray, s.max_depth, u, &mut sampler, rays)
             }
             None if s.integrator == IntegratorKind::Volpath => {
-                volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
+                volpath::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref(), camera_medium)
             }
             None if s.integrator == IntegratorKind::Raymarch => {
-                raymarch::li(scene, ray, s.max_depth, &mut sampler, rays, s.fog.as_ref())
+                let fog = s.fog.as_ref();
+                raymarch::li(
+                    scene,
+                    ray,
+                    s.max_depth,
+                    &mut sampler,
+                    rays,
+                    fog,
+                    camera_medium,
+                    s.raymarch_step_m,
+                )
             }
             None => radiance(scene, s.integrator, ray, s.max_depth, &mut sampler, rays, s.clamp_indirect),
         };
@@ -763,6 +797,7 @@ pub fn render_on(
                 lights: scene.lights.clone(),
                 background,
                 dispersion: scene.dispersion.clone(),
+                media: scene.media.clone(),
                 mesh: scene.mesh,
                 triangles: scene.triangles.clone(),
             };
@@ -798,6 +833,11 @@ pub fn render_on(
         .collect();
     let mine: Vec<(u32, u32)> =
         tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    // The bounded medium around the eye, if any (volpath and raymarch).
+    let camera_medium = match settings.integrator {
+        IntegratorKind::Volpath | IntegratorKind::Raymarch => scene.media.enclosing(scene, camera.eye),
+        _ => None,
+    };
     let use_lanes = lanes::applies(scene, settings) && std::env::var_os("PROPSIM_NO_LANES").is_none();
     let done: Vec<(Vec<Vec3>, u64)> = mine
         .par_iter()
@@ -810,7 +850,16 @@ pub fn render_on(
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
-                        px.push(render_pixel(scene, camera, settings, x, y, &mut rays, aid.as_ref()));
+                        px.push(render_pixel(
+                            scene,
+                            camera,
+                            settings,
+                            x,
+                            y,
+                            &mut rays,
+                            aid.as_ref(),
+                            camera_medium,
+                        ));
                     }
                 }
                 px

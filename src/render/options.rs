@@ -39,9 +39,9 @@ pub struct RenderOptions {
     /// raycast, whitted, distributed, path, light (light tracing), bdpt (bidirectional path
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
     /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
-    /// volpath (volumetric path tracing through a fog, --fog-*), raymarch (ray marching
-    /// through the fog, single scattering) or spectral (spectral path tracing, dispersive
-    /// glass) (default: the scene's, else path).
+    /// volpath (volumetric path tracing through a fog, --fog-*, and the scene's [[media]]),
+    /// raymarch (ray marching through the same media, single scattering) or spectral
+    /// (spectral path tracing, dispersive glass) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Spectral rendering: the same as --integrator spectral.
@@ -82,6 +82,10 @@ pub struct RenderOptions {
     /// volpath and raymarch: the fog's Henyey-Greenstein asymmetry g in (-1, 1) (default 0, isotropic).
     #[arg(long = "fog-g", allow_hyphen_values = true)]
     pub fog_g: Option<f32>,
+    /// raymarch: the march step, metres (default: a quarter of the densest channel's mean
+    /// free path, or of the grid's majorant, within 1/1024 to 1/16 of each segment).
+    #[arg(long = "raymarch-step", value_name = "METRES", allow_hyphen_values = true)]
+    pub raymarch_step_m: Option<f32>,
     /// sppm and ppm: iterations, each one camera sample a pixel and one photon pass (default:
     /// the samples per pixel, as pbrt-v4 reads its pixel samples).
     #[arg(long)]
@@ -142,6 +146,13 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
             g: g.unwrap_or(0.0),
         };
         fog.validate().map_err(|e| anyhow!("{e}"))?;
+        if let Some(m) = world.scene.media.iter().find(|m| m.boundary.is_empty()) {
+            anyhow::bail!(
+                "{}: the fog (fog_* or --fog-*) and medium \"{}\" (a [[media]] entry without a boundary) both fill the scene; keep one",
+                world.scene.path.display(),
+                m.name
+            );
+        }
         Some(fog)
     } else {
         None
@@ -160,6 +171,7 @@ pub fn settings(world: &World, options: &RenderOptions) -> anyhow::Result<Render
         radiosity: options.radiosity.options(),
         mlt: options.mlt.options(),
         fog,
+        raymarch_step_m: options.raymarch_step_m,
     };
     s.validate().map_err(|e| anyhow!("{e}"))?;
     Ok(s)
@@ -189,7 +201,8 @@ fn refuse_foreign_flags(
     .into_iter()
     .filter_map(|(flag, given)| given.then_some(flag))
     .collect();
-    let owners: [(Vec<&str>, bool, &str); 4] = [
+    let march_flags = if options.raymarch_step_m.is_some() { vec!["--raymarch-step"] } else { vec![] };
+    let owners: [(Vec<&str>, bool, &str); 5] = [
         (photon_flags, matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm), "sppm or ppm"),
         (options.mlt.given(), integrator == IntegratorKind::Pssmlt, "pssmlt"),
         (options.radiosity.given(), integrator == IntegratorKind::Radiosity, "radiosity"),
@@ -198,6 +211,7 @@ fn refuse_foreign_flags(
             matches!(integrator, IntegratorKind::Volpath | IntegratorKind::Raymarch),
             "volpath or raymarch",
         ),
+        (march_flags, integrator == IntegratorKind::Raymarch, "raymarch"),
     ];
     for (flags, applies, owner) in owners {
         if let Some(flag) = flags.first()

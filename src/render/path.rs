@@ -60,6 +60,24 @@ pub fn sample_direct_through(
     mis: bool,
     transmittance: impl Fn(f32) -> Vec3,
 ) -> Vec3 {
+    sample_direct_with(scene, v, u, rays, mis, |ls, _| {
+        if scene.light_blocked(v.hit, ls) { Vec3::ZERO } else { transmittance(ls.distance) }
+    })
+}
+
+/// [`sample_direct`] with the light's visibility and attenuation given by
+/// `visibility(sample, rays)` (zero when blocked; it counts any rays past the first into
+/// `rays`): media bounded by index-matched surfaces ([`super::media`]) need a shadow ray that
+/// passes those.
+#[inline]
+pub fn sample_direct_with(
+    scene: &RenderScene,
+    v: &Vertex,
+    u: Vec2,
+    rays: &mut u64,
+    mis: bool,
+    mut visibility: impl FnMut(&super::lights::LightSample, &mut u64) -> Vec3,
+) -> Vec3 {
     let Some((index, pmf, ux)) = scene.lights.choose_reusing(u.x) else {
         return Vec3::ZERO;
     };
@@ -72,10 +90,11 @@ pub fn sample_direct_through(
         return Vec3::ZERO;
     }
     *rays += 1;
-    if scene.light_blocked(v.hit, &ls) {
+    let tr = visibility(&ls, rays);
+    if tr == Vec3::ZERO {
         return Vec3::ZERO;
     }
-    let li = ls.li * transmittance(ls.distance);
+    let li = ls.li * tr;
     if ls.delta {
         return f * li / pmf;
     }

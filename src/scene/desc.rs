@@ -51,6 +51,9 @@ pub struct SceneDesc {
     /// Placed copies of meshes (`[[instances]]`).
     #[serde(default)]
     pub instances: Vec<super::instances::InstanceDesc>,
+    /// Participating media (`[[media]]`), seen by the `volpath` and `raymarch` integrators.
+    #[serde(default)]
+    pub media: Vec<super::media::MediumDesc>,
     /// Room-acoustics settings, sources and receivers.
     pub acoustic: Option<AcousticDesc>,
     /// Radio settings, transmitters, grid and receivers.

@@ -44,6 +44,8 @@ pub struct Scene {
     pub shapes: Vec<(crate::core::shapes::Shape, u32)>,
     /// Signed distance fields (`[[sdfs]]`) and their surfaces.
     pub sdfs: Vec<(crate::core::sdf::Sdf, u32)>,
+    /// Participating media (`[[media]]`).
+    pub media: Vec<super::media::SceneMedium>,
     /// The scene description.
     pub desc: SceneDesc,
     /// The materials.
@@ -314,6 +316,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
 
     let shapes = super::shapes::load_shapes(path, &desc.shapes, &library, &mut mesh, &mut surfaces)?;
     let sdfs = super::sdf::load_sdfs(path, &desc.sdfs, &library, &mut mesh, &mut surfaces)?;
+    let media = super::media::load_media(path, &desc.media, &surfaces)?;
 
     // Positions given in the description must be finite.
     if let Some(c) = &desc.camera {
@@ -350,6 +353,7 @@ pub fn load(path: &Path, options: &LoadOptions) -> Result<Scene, SceneError> {
         instances,
         shapes,
         sdfs,
+        media,
         desc,
         library,
         warnings,

@@ -2,6 +2,7 @@
 
 pub mod builtin;
 pub mod check;
+pub mod density_grid;
 pub mod desc;
 pub mod dispersion;
 pub mod error;
@@ -9,6 +10,7 @@ pub mod instances;
 pub mod itu;
 pub mod load;
 pub mod materials;
+pub mod media;
 pub mod obj;
 pub mod placement;
 pub mod report;
