@@ -8,7 +8,7 @@ mod common;
 
 use std::sync::Arc;
 
-use common::render::{go, settings};
+use common::render::{go, pooled_regions, settings, worst_welch_t};
 use glam::Vec3;
 use propsim::core::rng::stream;
 use propsim::core::{Accel, BuildQuality, Ray, TriangleMesh};
@@ -305,40 +305,12 @@ fn raymarch_and_volpath_agree_on_the_smoke_scene() {
     let mut scene = RenderScene::new(&world);
     let cam = propsim::render::scene_camera(&world, 1.0).unwrap();
     let (w, runs, block) = (16u32, 16u64, 4usize);
-    let pooled = |scene: &RenderScene, integrator: IntegratorKind, spp: u32, seed: u64| -> Vec<(f64, f64)> {
-        let per_run: Vec<Vec<f64>> = (0..runs)
-            .map(|k| {
-                let f = go(scene, &cam, &settings(w, spp, 1, integrator, seed + 1000 * k));
-                let r = w as usize / block;
-                (0..r * r)
-                    .map(|region| {
-                        let (rx, ry) = (region % r, region / r);
-                        let mut sum = 0.0;
-                        for y in ry * block..(ry + 1) * block {
-                            for x in rx * block..(rx + 1) * block {
-                                sum += f64::from(f.pixels[y * w as usize + x].element_sum()) / 3.0;
-                            }
-                        }
-                        sum / (block * block) as f64
-                    })
-                    .collect()
-            })
-            .collect();
-        let n = runs as f64;
-        (0..per_run[0].len())
-            .map(|i| {
-                let m = per_run.iter().map(|v| v[i]).sum::<f64>() / n;
-                let var = per_run.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
-                (m, var)
-            })
-            .collect()
+    let pooled = |scene: &RenderScene, integrator: IntegratorKind, spp: u32, seed: u64| {
+        let films: Vec<_> =
+            (0..runs).map(|k| go(scene, &cam, &settings(w, spp, 1, integrator, seed + 1000 * k))).collect();
+        pooled_regions(&films, w as usize, block, false)
     };
-    let worst_t = |a: &[(f64, f64)], b: &[(f64, f64)]| {
-        a.iter()
-            .zip(b)
-            .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
-            .fold(0.0f64, f64::max)
-    };
+    let worst_t = worst_welch_t;
     let reference = pooled(&scene, IntegratorKind::Volpath, 256, 1);
     let marched = pooled(&scene, IntegratorKind::Raymarch, 32, 5);
     let (mut sum_v, mut sum_r, mut var_sum) = (0.0, 0.0, 0.0);

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::render::{go, settings};
+use common::render::{go, pooled_regions, settings, worst_welch_t};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
 use propsim::render::medium::Medium;
@@ -450,42 +450,17 @@ fn raymarch_and_volpath_agree_in_a_thin_fog() {
     let cam = propsim::render::scene_camera(&world, 1.0).unwrap();
     let fog = Medium { sigma_a_per_m: Vec3::splat(0.1), sigma_s_per_m: Vec3::new(0.3, 0.5, 0.7), g: 0.4 };
     let (w, runs, block) = (16u32, 16u64, 4usize);
-    let pooled = |integrator: IntegratorKind, fog: Medium, spp: u32, seed: u64| -> Vec<(f64, f64)> {
-        let per_run: Vec<Vec<f64>> = (0..runs)
+    let pooled = |integrator: IntegratorKind, fog: Medium, spp: u32, seed: u64| {
+        let films: Vec<_> = (0..runs)
             .map(|k| {
                 let mut s = settings(w, spp, 1, integrator, seed + 1000 * k);
                 s.fog = Some(fog);
-                let f = go(&scene, &cam, &s);
-                let r = w as usize / block;
-                (0..r * r)
-                    .map(|region| {
-                        let (rx, ry) = (region % r, region / r);
-                        let mut sum = 0.0;
-                        for y in ry * block..(ry + 1) * block {
-                            for x in rx * block..(rx + 1) * block {
-                                sum += f64::from(f.pixels[y * w as usize + x].element_sum()) / 3.0;
-                            }
-                        }
-                        sum / (block * block) as f64
-                    })
-                    .collect()
+                go(&scene, &cam, &s)
             })
             .collect();
-        let n = runs as f64;
-        (0..per_run[0].len())
-            .map(|i| {
-                let m = per_run.iter().map(|v| v[i]).sum::<f64>() / n;
-                let var = per_run.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
-                (m, var)
-            })
-            .collect()
+        pooled_regions(&films, w as usize, block, false)
     };
-    let worst_t = |a: &[(f64, f64)], b: &[(f64, f64)]| {
-        a.iter()
-            .zip(b)
-            .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
-            .fold(0.0f64, f64::max)
-    };
+    let worst_t = worst_welch_t;
     let reference = pooled(IntegratorKind::Volpath, fog, 256, 1);
     let marched = pooled(IntegratorKind::Raymarch, fog, 64, 5);
     let (mut sum_v, mut sum_r, mut var_sum) = (0.0, 0.0, 0.0);

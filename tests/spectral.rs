@@ -6,7 +6,7 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::render::{go, settings};
+use common::render::{go, pooled_regions, settings, worst_welch_t as worst_t};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Ray, Sphere, TriangleMesh};
 use propsim::render::{
@@ -52,8 +52,8 @@ fn spectral_white_furnace_converges_to_le_over_one_minus_r() {
     }
 }
 
-/// Per 4 x 4 region and channel of a 16 x 16 image: the mean over `runs` renders of
-/// different seeds, and the variance of that mean.
+/// Per 4 x 4 region and channel of a 16 x 16 image: the mean over 12 renders of different
+/// seeds, and the variance of that mean.
 fn pooled(
     scene: &RenderScene,
     cam: &Camera,
@@ -62,45 +62,9 @@ fn pooled(
     depth: u32,
     seed: u64,
 ) -> Vec<(f64, f64)> {
-    let (w, runs, block) = (16usize, 12u64, 4usize);
-    let per_run: Vec<Vec<f64>> = (0..runs)
-        .map(|k| {
-            let f = go(scene, cam, &settings(w as u32, spp, depth, integrator, seed + 1000 * k));
-            let r = w / block;
-            let mut v = Vec::new();
-            for region in 0..r * r {
-                let (rx, ry) = (region % r, region / r);
-                for c in 0..3 {
-                    let mut sum = 0.0;
-                    for y in ry * block..(ry + 1) * block {
-                        for x in rx * block..(rx + 1) * block {
-                            sum += f64::from(f.pixels[y * w + x][c]);
-                        }
-                    }
-                    v.push(sum / (block * block) as f64);
-                }
-            }
-            v
-        })
-        .collect();
-    let n = runs as f64;
-    (0..per_run[0].len())
-        .map(|i| {
-            let m = per_run.iter().map(|v| v[i]).sum::<f64>() / n;
-            let var = per_run.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
-            (m, var)
-        })
-        .collect()
-}
-
-/// The largest Welch |t| between two pooled images (regions with no light on either side
-/// skipped: both exactly zero).
-fn worst_t(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
-    a.iter()
-        .zip(b)
-        .filter(|((m, _), (rm, _))| *m != 0.0 || *rm != 0.0)
-        .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
-        .fold(0.0f64, f64::max)
+    let films: Vec<_> =
+        (0..12u64).map(|k| go(scene, cam, &settings(16, spp, depth, integrator, seed + 1000 * k))).collect();
+    pooled_regions(&films, 16, 4, true)
 }
 
 /// The Cornell box's optics with its light made white, and with `grey` every surface grey

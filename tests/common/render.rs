@@ -11,3 +11,50 @@ pub fn settings(w: u32, spp: u32, max_depth: u32, integrator: IntegratorKind, se
 pub fn go(scene: &RenderScene, cam: &Camera, s: &RenderSettings) -> Film {
     render(scene, cam, s, &|_| {}).expect("renders").film
 }
+
+/// Per region of `block` x `block` pixels of the square `w` x `w` films (independent renders
+/// of one image): the mean over the films of the region's mean, per channel when
+/// `per_channel` (regions first, then channels) or of the channels' mean, and the variance of
+/// that mean (the sample variance over the films divided by their number), for Welch's t.
+pub fn pooled_regions(films: &[Film], w: usize, block: usize, per_channel: bool) -> Vec<(f64, f64)> {
+    let r = w / block;
+    let per_film: Vec<Vec<f64>> = films
+        .iter()
+        .map(|f| {
+            let mut v = Vec::new();
+            for region in 0..r * r {
+                let (rx, ry) = (region % r, region / r);
+                let channels: &[usize] = if per_channel { &[0, 1, 2] } else { &[3] };
+                for &c in channels {
+                    let mut sum = 0.0;
+                    for y in ry * block..(ry + 1) * block {
+                        for x in rx * block..(rx + 1) * block {
+                            let p = f.pixels[y * w + x];
+                            sum += f64::from(if c == 3 { p.element_sum() / 3.0 } else { p[c] });
+                        }
+                    }
+                    v.push(sum / (block * block) as f64);
+                }
+            }
+            v
+        })
+        .collect();
+    let n = films.len() as f64;
+    (0..per_film[0].len())
+        .map(|i| {
+            let m = per_film.iter().map(|v| v[i]).sum::<f64>() / n;
+            let var = per_film.iter().map(|v| (v[i] - m).powi(2)).sum::<f64>() / (n - 1.0) / n;
+            (m, var)
+        })
+        .collect()
+}
+
+/// The largest Welch |t| between two pooled images from [`pooled_regions`] (regions with no
+/// light on either side, both exactly zero, skipped).
+pub fn worst_welch_t(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
+    a.iter()
+        .zip(b)
+        .filter(|((m, _), (rm, _))| *m != 0.0 || *rm != 0.0)
+        .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
+        .fold(0.0f64, f64::max)
+}
