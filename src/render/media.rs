@@ -81,25 +81,13 @@ impl Volume {
             return flight;
         };
         let (sigma_s, sigma_t) = (self.medium.sigma_s_per_m, self.medium.sigma_t_per_m());
-        let sigma_max = sigma_t.max_element();
-        let mut collisions = 0u32;
-        grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
-            let sigma_bar = majorant * sigma_max;
-            if sigma_bar.is_nan() || sigma_bar <= 0.0 {
-                return false;
-            }
-            let mut t = start;
-            loop {
-                collisions += 1;
-                if collisions > MAX_COLLISIONS {
-                    flight.weight = Vec3::ZERO;
-                    return true;
-                }
-                t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
-                if t >= end {
-                    return false;
-                }
-                let d = grid.density(ray.at(t));
+        let complete = tentative_collisions(
+            grid,
+            ray,
+            (t0, t1),
+            sigma_t.max_element(),
+            sampler,
+            |t, d, sigma_bar, sampler| {
                 let s = sigma_s * d;
                 let n = (Vec3::splat(sigma_bar) - sigma_t * d).max(Vec3::ZERO);
                 let (ps, pn) = (s.element_sum(), n.element_sum());
@@ -114,8 +102,12 @@ impl Volume {
                     return true;
                 }
                 flight.weight *= n / (sigma_bar * (1.0 - p_scatter));
-            }
-        });
+                false
+            },
+        );
+        if !complete {
+            flight.weight = Vec3::ZERO;
+        }
         flight
     }
 
@@ -129,34 +121,62 @@ impl Volume {
             return Vec3::ONE;
         };
         let sigma_t = self.medium.sigma_t_per_m();
-        let sigma_max = sigma_t.max_element();
         let mut tr = Vec3::ONE;
-        let mut collisions = 0u32;
-        grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
-            let sigma_bar = majorant * sigma_max;
-            if sigma_bar.is_nan() || sigma_bar <= 0.0 {
-                return false;
-            }
-            let mut t = start;
-            loop {
-                collisions += 1;
-                if collisions > MAX_COLLISIONS {
-                    tr = Vec3::ZERO;
-                    return true;
-                }
-                t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
-                if t >= end {
-                    return false;
-                }
-                let d = grid.density(ray.at(t));
+        let complete = tentative_collisions(
+            grid,
+            ray,
+            (t0, t1),
+            sigma_t.max_element(),
+            sampler,
+            |_, d, sigma_bar, _| {
                 tr *= (Vec3::ONE - sigma_t * (d / sigma_bar)).max(Vec3::ZERO);
-                if tr == Vec3::ZERO {
-                    return true;
-                }
-            }
-        });
+                tr == Vec3::ZERO
+            },
+        );
+        if !complete {
+            tr = Vec3::ZERO;
+        }
         tr
     }
+}
+
+/// The tentative collisions of delta and ratio tracking along `ray` over `[t0, t1]` in
+/// `grid` (Woodcock et al. 1965; pbrt-v4 sec. 14.2.1): exponential steps at each majorant
+/// cell's rate `majorant x sigma_max`, `visit(t, density, rate, sampler)` at each; `visit`
+/// returns true to stop. Returns false when the walk gave up after [`MAX_COLLISIONS`]
+/// collisions (the caller zeroes its estimate), else true.
+fn tentative_collisions(
+    grid: &DensityGrid,
+    ray: &Ray,
+    (t0, t1): (f32, f32),
+    sigma_max: f32,
+    sampler: &mut Sampler,
+    mut visit: impl FnMut(f32, f32, f32, &mut Sampler) -> bool,
+) -> bool {
+    let mut collisions = 0u32;
+    let mut complete = true;
+    grid.majorant_segments(ray, t0, t1, |start, end, majorant| {
+        let sigma_bar = majorant * sigma_max;
+        if sigma_bar.is_nan() || sigma_bar <= 0.0 {
+            return false;
+        }
+        let mut t = start;
+        loop {
+            collisions += 1;
+            if collisions > MAX_COLLISIONS {
+                complete = false;
+                return true;
+            }
+            t -= (1.0 - sampler.get_1d()).max(f32::MIN_POSITIVE).ln() / sigma_bar;
+            if t >= end {
+                return false;
+            }
+            if visit(t, grid.density(ray.at(t)), sigma_bar, sampler) {
+                return true;
+            }
+        }
+    });
+    complete
 }
 
 /// The media of a render scene: every medium, the one filling the scene (if any) and the
