@@ -198,6 +198,14 @@ fn bad_inputs_give_one_line_errors() {
         &with(&["--integrator", "path", "--mlt-chains", "1000"]),
         &["--mlt-chains", "not path"],
     );
+    // The clamp is the path tracer's: the integrators that ignore it refuse it.
+    for integrator in ["bdpt", "spectral", "volpath"] {
+        let not = format!("not {integrator}");
+        assert_clean_error(
+            &with(&["--integrator", integrator, "--clamp-indirect", "10"]),
+            &["--clamp-indirect", "path or distributed", &not],
+        );
+    }
     for (flag, integrator) in
         [("--iterations", "light"), ("--photons", "pssmlt"), ("--sppm-radius", "radiosity")]
     {

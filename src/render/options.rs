@@ -202,7 +202,8 @@ fn refuse_foreign_flags(
     .filter_map(|(flag, given)| given.then_some(flag))
     .collect();
     let march_flags = if options.raymarch_step_m.is_some() { vec!["--raymarch-step"] } else { vec![] };
-    let owners: [(Vec<&str>, bool, &str); 5] = [
+    let clamp_flags = if options.clamp_indirect.is_some() { vec!["--clamp-indirect"] } else { vec![] };
+    let owners: [(Vec<&str>, bool, &str); 6] = [
         (photon_flags, matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm), "sppm or ppm"),
         (options.mlt.given(), integrator == IntegratorKind::Pssmlt, "pssmlt"),
         (options.radiosity.given(), integrator == IntegratorKind::Radiosity, "radiosity"),
@@ -212,6 +213,11 @@ fn refuse_foreign_flags(
             "volpath or raymarch",
         ),
         (march_flags, integrator == IntegratorKind::Raymarch, "raymarch"),
+        (
+            clamp_flags,
+            matches!(integrator, IntegratorKind::Path | IntegratorKind::Distributed),
+            "path or distributed",
+        ),
     ];
     for (flags, applies, owner) in owners {
         if let Some(flag) = flags.first()
