@@ -3,7 +3,9 @@
 
 mod common;
 
-use common::render::{go, pooled_regions, settings, worst_welch_t};
+use common::render::{
+    go, pooled_regions, settings, whole_image_t, with_glass_and_metal_balls, worst_welch_t,
+};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Sphere, TriangleMesh};
 use propsim::render::medium::Medium;
@@ -295,20 +297,8 @@ fn rmse_falls_by_about_two_from_16_to_64_spp() {
 #[test]
 fn same_seed_same_image_on_one_and_two_threads() {
     let world = cornell();
-    let mut mesh = world.scene.mesh.clone();
-    let glass = mesh.surface_id("glass");
-    let metal = mesh.surface_id("metal");
-    let mut optics: Vec<SurfaceOptics> =
-        world.scene.surfaces.iter().map(SurfaceOptics::from_surface).collect();
-    optics.push(SurfaceOptics { bsdf: Bsdf::Dielectric { eta: 1.5, tint: Vec3::ONE }, emission: Vec3::ZERO });
-    optics.push(SurfaceOptics {
-        bsdf: Bsdf::Metal { f0: Vec3::new(0.9, 0.8, 0.5), alpha: 0.2 },
-        emission: Vec3::ZERO,
-    });
-    let spheres = vec![
-        Sphere::new(Vec3::new(0.2, 0.2, 0.43), 0.08, glass),
-        Sphere::new(Vec3::new(0.4, 0.3, 0.25), 0.08, metal),
-    ];
+    let (mesh, optics, spheres) =
+        with_glass_and_metal_balls(&world, ("glass", 1.5), ("metal", Vec3::new(0.9, 0.8, 0.5)));
     let accel = Accel::build(&mesh, spheres.clone(), BuildQuality::default());
     let scene = RenderScene::from_parts(&accel, &mesh, &spheres, optics, &[], Vec3::ZERO);
     let mut cam = propsim::render::scene_camera(&world, 1.5).unwrap();
@@ -463,20 +453,13 @@ fn raymarch_and_volpath_agree_in_a_thin_fog() {
     let worst_t = worst_welch_t;
     let reference = pooled(IntegratorKind::Volpath, fog, 256, 1);
     let marched = pooled(IntegratorKind::Raymarch, fog, 64, 5);
-    let (mut sum_v, mut sum_r, mut var_sum) = (0.0, 0.0, 0.0);
-    for (v, r) in reference.iter().zip(&marched) {
-        sum_v += v.0;
-        sum_r += r.0;
-        var_sum += v.1 + r.1;
-    }
     // The whole image's mean too (its own test, at alpha 0.001: |t| < 4.1 at 15 dof).
-    let t_all = (sum_r - sum_v).abs() / var_sum.sqrt();
+    let (ratio, t_all) = whole_image_t(&marched, &reference);
     let worst = worst_t(&marched, &reference);
     eprintln!(
-        "raymarch against volpath: worst |t| {worst:.2} over 16 regions; image mean ratio {:.4}, |t| {t_all:.2}",
-        sum_r / sum_v
+        "raymarch against volpath: worst |t| {worst:.2} over 16 regions; image mean ratio {ratio:.4}, |t| {t_all:.2}"
     );
-    assert!(t_all < 4.1, "raymarch against volpath: image mean ratio {}, |t| {t_all}", sum_r / sum_v);
+    assert!(t_all < 4.1, "raymarch against volpath: image mean ratio {ratio}, |t| {t_all}");
     assert!(worst < 5.5, "raymarch against volpath: |t| {worst}");
     let thicker = Medium { sigma_s_per_m: fog.sigma_s_per_m * 2.0, ..fog };
     let wrong = worst_t(&pooled(IntegratorKind::Raymarch, thicker, 64, 9), &reference);

@@ -6,7 +6,7 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::render::{go, pooled_regions, settings, worst_welch_t as worst_t};
+use common::render::{go, pooled_regions, settings, with_glass_and_metal_balls, worst_welch_t as worst_t};
 use glam::Vec3;
 use propsim::core::{Accel, BuildQuality, Ray, Sphere, TriangleMesh};
 use propsim::render::{
@@ -217,20 +217,9 @@ fn prism_deviation_per_wavelength_follows_snell() {
 #[test]
 fn spectral_same_seed_same_image_on_one_and_two_threads() {
     let world = cornell();
-    let mut mesh = world.scene.mesh.clone();
-    let glass = mesh.surface_id("flint");
-    let metal = mesh.surface_id("gold");
-    let mut optics: Vec<SurfaceOptics> =
-        world.scene.surfaces.iter().map(SurfaceOptics::from_surface).collect();
-    optics.push(SurfaceOptics { bsdf: Bsdf::Dielectric { eta: 1.6, tint: Vec3::ONE }, emission: Vec3::ZERO });
-    optics.push(SurfaceOptics {
-        bsdf: Bsdf::Metal { f0: Vec3::new(0.9, 0.7, 0.3), alpha: 0.2 },
-        emission: Vec3::ZERO,
-    });
-    let spheres = vec![
-        Sphere::new(Vec3::new(0.2, 0.2, 0.43), 0.08, glass),
-        Sphere::new(Vec3::new(0.4, 0.3, 0.25), 0.08, metal),
-    ];
+    let (mesh, optics, spheres) =
+        with_glass_and_metal_balls(&world, ("flint", 1.6), ("gold", Vec3::new(0.9, 0.7, 0.3)));
+    let glass = spheres[0].surface;
     let accel = Accel::build(&mesh, spheres.clone(), BuildQuality::default());
     let mut scene = RenderScene::from_parts(&accel, &mesh, &spheres, optics, &[], Vec3::ZERO);
     scene.dispersion = vec![None; scene.surfaces.len()];

@@ -58,3 +58,40 @@ pub fn worst_welch_t(a: &[(f64, f64)], b: &[(f64, f64)]) -> f64 {
         .map(|((m, v), (rm, rv))| (m - rm).abs() / (v + rv).sqrt().max(1e-12))
         .fold(0.0f64, f64::max)
 }
+
+/// The whole image's mean of pooled image `a` over `b`'s, and Welch's |t| of their
+/// difference (the regions' variances summed).
+pub fn whole_image_t(a: &[(f64, f64)], b: &[(f64, f64)]) -> (f64, f64) {
+    let (mut sum_a, mut sum_b, mut var) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(b) {
+        sum_a += x.0;
+        sum_b += y.0;
+        var += x.1 + y.1;
+    }
+    (sum_a / sum_b, (sum_a - sum_b).abs() / var.sqrt())
+}
+
+/// The Cornell box's mesh and optics with two more surfaces, glass of index `eta` named
+/// `glass` and a rough metal of `f0` named `metal`, and a ball of each (radius 8 cm, one in
+/// the air, one on the short block): the thread-determinism scenes' specular setup.
+pub fn with_glass_and_metal_balls(
+    world: &propsim::scene::World,
+    (glass, eta): (&str, f32),
+    (metal, f0): (&str, glam::Vec3),
+) -> (propsim::core::TriangleMesh, Vec<propsim::render::SurfaceOptics>, Vec<propsim::core::Sphere>) {
+    use glam::Vec3;
+    use propsim::core::Sphere;
+    use propsim::render::{Bsdf, SurfaceOptics};
+    let mut mesh = world.scene.mesh.clone();
+    let glass = mesh.surface_id(glass);
+    let metal = mesh.surface_id(metal);
+    let mut optics: Vec<SurfaceOptics> =
+        world.scene.surfaces.iter().map(SurfaceOptics::from_surface).collect();
+    optics.push(SurfaceOptics { bsdf: Bsdf::Dielectric { eta, tint: Vec3::ONE }, emission: Vec3::ZERO });
+    optics.push(SurfaceOptics { bsdf: Bsdf::Metal { f0, alpha: 0.2 }, emission: Vec3::ZERO });
+    let spheres = vec![
+        Sphere::new(Vec3::new(0.2, 0.2, 0.43), 0.08, glass),
+        Sphere::new(Vec3::new(0.4, 0.3, 0.25), 0.08, metal),
+    ];
+    (mesh, optics, spheres)
+}
