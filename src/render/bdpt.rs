@@ -292,87 +292,64 @@ fn blocked(scene: &RenderScene, a: &Vertex, b: &Vertex, rays: &mut u64) -> bool 
 /// `(pdf_rev, pdf_fwd, delta)` of a vertex, as the MIS weight reads them.
 type Densities = (f32, f32, bool);
 
-/// The balance-heuristic weight of the path made by joining `light[..s]` and `camera[..t]`,
-/// with `sampled` standing in for the sampled endpoint of the `s = 1` or `t = 1` strategies
-/// (pbrt-v3 sec. 16.3.4, `MISWeight`).
-fn mis_weight(
-    scene: &RenderScene,
-    camera_model: &Camera,
-    light: &[Vertex],
-    camera: &[Vertex],
-    sampled: Option<&Vertex>,
-    s: usize,
-    t: usize,
-) -> f32 {
-    if s + t == 2 {
-        return 1.0;
-    }
-    let qs = (s > 0).then(|| if s == 1 { *sampled.unwrap_or(&light[0]) } else { light[s - 1] });
-    let pt = if t == 1 { *sampled.unwrap_or(&camera[0]) } else { camera[t - 1] };
-    let qs_minus = (s > 1).then(|| light[s - 2]);
-    let pt_minus = (t > 1).then(|| camera[t - 2]);
-    let d = |v: &Vertex| -> Densities { (v.pdf_rev, v.pdf_fwd, v.delta) };
-    // The densities of the joined path's vertices: the subpaths' own, but for the (at most
-    // two) vertices at each end of the join, which are computed here. Read in place rather
-    // than copied, which saves two allocations a join.
-    // The joined vertices are not Dirac, whatever their BSDF.
-    let mut cam_last = d(&pt);
-    cam_last.2 = false;
-    cam_last.0 = match &qs {
-        Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
-        None => pt.pdf_light_origin(scene),
-    };
-    let cam_prev = pt_minus.as_ref().map(|pm| {
-        let mut c = d(&camera[t - 2]);
-        c.0 = match &qs {
-            Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
-            None => pt.pdf_light(scene, pm),
-        };
-        c
-    });
-    let lig_last = qs.as_ref().map(|q| {
-        let mut l = d(q);
-        l.2 = false;
-        l.0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
-        l
-    });
-    let lig_prev = match (&qs, &qs_minus) {
-        (Some(q), Some(qm)) => {
-            let mut l = d(&light[s - 2]);
-            l.0 = q.pdf(scene, camera_model, Some(&pt), qm);
-            Some(l)
-        }
-        _ => None,
-    };
+#[inline]
+fn densities(v: &Vertex) -> Densities {
+    (v.pdf_rev, v.pdf_fwd, v.delta)
+}
+
+/// The densities of the (at most two) vertices at each side of a join, which differ from the
+/// subpaths' own: the rest of the joined path reads its vertices in place.
+struct Junction {
+    cam_last: Densities,
+    cam_prev: Option<Densities>,
+    lig_last: Option<Densities>,
+    lig_prev: Option<Densities>,
+    /// Whether the light end of the joined path is a Dirac emitter (a point light).
+    delta_light: bool,
+}
+
+/// The sum, over every other strategy that could have made the joined path `light[..s]` +
+/// `camera[..t]`, of its density over this connection's (pbrt-v3 sec. 16.3.4, `MISWeight`),
+/// with the merging strategies of vertex connection and merging when `eta` (the merging
+/// paths times the disc area, `N pi r^2`) is positive: a merge at vertex `x` has the density
+/// of the connection that ends the eye subpath at `x` times `eta` and the light's density of
+/// `x` (Georgiev et al. 2012, sec. 4.2-4.3). Merges need a non-Dirac vertex with at least one
+/// light bounce before it and the camera vertex after.
+fn other_strategies(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, j: &Junction, eta: f32) -> f32 {
     let cam_at = |i: usize| -> Densities {
         if i + 1 == t {
-            cam_last
+            j.cam_last
         } else if i + 2 == t
-            && let Some(c) = cam_prev
+            && let Some(c) = j.cam_prev
         {
             c
         } else {
-            d(&camera[i])
+            densities(&camera[i])
         }
     };
     let lig_at = |i: usize| -> Densities {
         if i + 1 == s
-            && let Some(l) = lig_last
+            && let Some(l) = j.lig_last
         {
             l
         } else if i + 2 == s
-            && let Some(l) = lig_prev
+            && let Some(l) = j.lig_prev
         {
             l
         } else {
-            d(&light[i])
+            densities(&light[i])
         }
     };
     let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
+    let merging = eta > 0.0;
     let mut sum = 0.0f32;
     let mut ri = 1.0f32;
     for i in (1..t).rev() {
         let (c, c_before) = (cam_at(i), cam_at(i - 1));
+        // A merge at camera vertex i (not the emitter point that ends an `s = 0` path).
+        if merging && !c.2 && (s > 0 || i + 1 < t) {
+            sum += ri * eta * c.0;
+        }
         ri *= remap(c.0) / remap(c.1);
         if !c.2 && !c_before.2 {
             sum += ri;
@@ -381,19 +358,112 @@ fn mis_weight(
     ri = 1.0;
     for i in (0..s).rev() {
         let l = lig_at(i);
+        if merging && i >= 1 && !l.2 {
+            sum += ri * eta * l.0;
+        }
         ri *= remap(l.0) / remap(l.1);
-        let delta_before = if i > 0 {
-            lig_at(i - 1).2
-        } else {
-            let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { &light[0] };
-            first.light.is_some_and(|l| scene.lights.lights[l].is_delta())
-        };
+        let delta_before = if i > 0 { lig_at(i - 1).2 } else { j.delta_light };
         if !l.2 && !delta_before {
             sum += ri;
         }
     }
-    let w = 1.0 / (1.0 + sum);
+    sum
+}
+
+/// The balance-heuristic weight of the path made by joining `light[..s]` and `camera[..t]`,
+/// with `sampled` standing in for the sampled endpoint of the `s = 1` or `t = 1` strategies
+/// (pbrt-v3 sec. 16.3.4, `MISWeight`); `eta` as in [`other_strategies`] (zero: BDPT alone).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn mis_weight(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    light: &[Vertex],
+    camera: &[Vertex],
+    sampled: Option<&Vertex>,
+    s: usize,
+    t: usize,
+    eta: f32,
+) -> f32 {
+    if s + t == 2 {
+        return 1.0;
+    }
+    let qs = (s > 0).then(|| if s == 1 { *sampled.unwrap_or(&light[0]) } else { light[s - 1] });
+    let pt = if t == 1 { *sampled.unwrap_or(&camera[0]) } else { camera[t - 1] };
+    let qs_minus = (s > 1).then(|| light[s - 2]);
+    let pt_minus = (t > 1).then(|| camera[t - 2]);
+    // The joined vertices are not Dirac, whatever their BSDF.
+    let mut cam_last = densities(&pt);
+    cam_last.2 = false;
+    cam_last.0 = match &qs {
+        Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
+        None => pt.pdf_light_origin(scene),
+    };
+    let cam_prev = pt_minus.as_ref().map(|pm| {
+        let mut c = densities(&camera[t - 2]);
+        c.0 = match &qs {
+            Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
+            None => pt.pdf_light(scene, pm),
+        };
+        c
+    });
+    let lig_last = qs.as_ref().map(|q| {
+        let mut l = densities(q);
+        l.2 = false;
+        l.0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
+        l
+    });
+    let lig_prev = match (&qs, &qs_minus) {
+        (Some(q), Some(qm)) => {
+            let mut l = densities(&light[s - 2]);
+            l.0 = q.pdf(scene, camera_model, Some(&pt), qm);
+            Some(l)
+        }
+        _ => None,
+    };
+    let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { light.first().unwrap_or(&pt) };
+    let delta_light = s > 0 && first.light.is_some_and(|l| scene.lights.lights[l].is_delta());
+    let junction = Junction { cam_last, cam_prev, lig_last, lig_prev, delta_light };
+    let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, &junction, eta));
     if w.is_finite() { w } else { 0.0 }
+}
+
+/// The weight of merging the eye vertex `camera[t - 1]` with the light vertex `light[m]`
+/// (`m = light.len() - 1 >= 1`, a photon within the merging radius), `eta = N pi r^2`: the
+/// merge's density over the sum of every strategy's, the path read as the eye subpath
+/// `camera[..t]` and the light subpath `light[..m]` (Georgiev et al. 2012, eq. 10-12). At the
+/// junction the light's density of the merged vertex is the photon's own; a Dirac light
+/// vertex before it keeps its subpath's densities (no connection could end there).
+pub(super) fn merge_weight(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    light: &[Vertex],
+    camera: &[Vertex],
+    t: usize,
+    eta: f32,
+) -> f32 {
+    let m = light.len() - 1;
+    let (photon, q, pt) = (&light[m], &light[m - 1], &camera[t - 1]);
+    let pt_minus = &camera[t - 2];
+    let mut cam_last = densities(pt);
+    cam_last.0 = photon.pdf_fwd;
+    let mut cam_prev = densities(pt_minus);
+    cam_prev.0 = pt.pdf(scene, camera_model, Some(q), pt_minus);
+    let mut lig_last = densities(q);
+    lig_last.0 = pt.pdf(scene, camera_model, Some(pt_minus), q);
+    let lig_prev = (m >= 2).then(|| {
+        let mut l = densities(&light[m - 2]);
+        if !q.delta {
+            l.0 = q.pdf(scene, camera_model, Some(pt), &light[m - 2]);
+        }
+        l
+    });
+    let delta_light = light[0].light.is_some_and(|l| scene.lights.lights[l].is_delta());
+    let junction =
+        Junction { cam_last, cam_prev: Some(cam_prev), lig_last: Some(lig_last), lig_prev, delta_light };
+    let connection = if q.delta || pt.delta { 0.0 } else { 1.0 };
+    let others = other_strategies(&light[..m], camera, m, t, &junction, eta);
+    let w = eta * cam_last.0 / (connection + others);
+    if w.is_finite() { w.clamp(0.0, 1.0) } else { 0.0 }
 }
 
 /// One camera sample of pixel `(x, y)`: its radiance estimate (strategies with `t >= 2`), with
@@ -414,17 +484,35 @@ fn sample(
     let o = u2(rng);
     let lens = if camera_model.aperture_radius_m > 0.0 { u2(rng) } else { Vec2::ZERO };
     let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-    let max_depth = s.max_depth as usize;
-    let mut l = camera_subpath(scene, camera_model, fp, lens, max_depth + 2, rng, camera, rays);
+    let l = camera_subpath(scene, camera_model, fp, lens, s.max_depth as usize + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
+    l + connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, rng, film, rays)
+}
+
+/// Every join of `light` and `camera` of at most `max_depth` bounces, weighted by MIS (with
+/// merging strategies counted when `eta > 0`): the radiance of the strategies with `t >= 2`;
+/// the `t = 1` ones are splatted on `film`.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn connect_all<R: Uniforms>(
+    scene: &RenderScene,
+    camera_model: &Camera,
+    max_depth: u32,
+    light: &[Vertex],
+    camera: &[Vertex],
+    eta: f32,
+    rng: &mut R,
+    film: &mut SplatFilm,
+    rays: &mut u64,
+) -> Vec3 {
+    let mut l = Vec3::ZERO;
     for t in 1..=camera.len() {
         for si in 0..=light.len() {
             let depth = (si + t) as i64 - 2;
-            if (si == 1 && t == 1) || depth < 0 || depth > max_depth as i64 {
+            if (si == 1 && t == 1) || depth < 0 || depth > i64::from(max_depth) {
                 continue;
             }
-            let u = u2(rng);
-            if let Some((c, splat)) = connect(scene, camera_model, light, camera, si, t, u, rays) {
+            let u = rng.next_2d();
+            if let Some((c, splat)) = connect(scene, camera_model, light, camera, si, t, u, eta, rays) {
                 match splat {
                     Some(p) => film.add(p, c),
                     None => l += c,
@@ -466,6 +554,7 @@ pub(super) fn connect(
     s: usize,
     t: usize,
     u: Vec2,
+    eta: f32,
     rays: &mut u64,
 ) -> Option<(Vec3, Option<Vec2>)> {
     let mut sampled = None;
@@ -549,7 +638,7 @@ pub(super) fn connect(
     if l == Vec3::ZERO || !l.is_finite() {
         return None;
     }
-    let w = mis_weight(scene, camera_model, light, camera, sampled.as_ref(), s, t);
+    let w = mis_weight(scene, camera_model, light, camera, sampled.as_ref(), s, t, eta);
     Some((l * w, splat))
 }
 
@@ -627,7 +716,11 @@ mod tests {
     use crate::scene::{self, LoadOptions, World};
 
     /// The balance weight of strategy `(s, t)` computed from scratch: every strategy's density
-    /// of the whole path, products of per-vertex densities recomputed from the positions.
+    /// of the whole path, products of per-vertex densities recomputed from the positions. With
+    /// `eta > 0` the merges at the path's inner non-Dirac vertices count too (density of the
+    /// join that ends the eye path there, times `eta` and the light's density of the vertex),
+    /// and with `merge` the weight is that of the merge at `camera[t - 1]`.
+    #[allow(clippy::too_many_arguments)]
     fn brute_weight(
         scene: &RenderScene,
         cam: &Camera,
@@ -636,6 +729,8 @@ mod tests {
         sampled: Option<&Vertex>,
         s: usize,
         t: usize,
+        eta: f64,
+        merge: bool,
     ) -> f64 {
         let mut xs: Vec<Vertex> = camera[..t].to_vec();
         if t == 1 {
@@ -676,16 +771,31 @@ mod tests {
                 total += density(tp);
             }
         }
+        let merged = |i: usize| density(i + 1) * eta * p_light[i];
+        if eta > 0.0 {
+            total += (1..k).filter(|&i| !delta(i)).map(merged).sum::<f64>();
+        }
         // Vertices a few millimetres apart (densities above 1e4 per m^2) leave f32 positions
         // too few digits for a 1 % comparison.
         if p_cam.iter().chain(&p_light).any(|&p| p > 1e4) {
             return f64::NAN;
         }
-        density(t) / total
+        if merge { merged(t - 1) / total } else { density(t) / total }
     }
 
     #[test]
     fn mis_weights_match_the_balance_heuristic_from_scratch() {
+        join_weights_match_the_balance_heuristic_from_scratch(0.0);
+    }
+
+    /// The joins' weights when merges are strategies too (VCM), with a merging disc large
+    /// enough that merges and joins share the weight.
+    #[test]
+    fn join_weights_with_merges_match_the_balance_heuristic_from_scratch() {
+        join_weights_match_the_balance_heuristic_from_scratch(2.0);
+    }
+
+    fn join_weights_match_the_balance_heuristic_from_scratch(eta: f32) {
         let world = World::build(
             scene::load("builtin:cornell_box_classic".as_ref(), &LoadOptions::default()).unwrap(),
         );
@@ -749,8 +859,18 @@ mod tests {
                     if !carries {
                         continue;
                     }
-                    let w = mis_weight(&scene, &cam, &light, &camera, sampled.as_ref(), s, t);
-                    let b = brute_weight(&scene, &cam, &light, &camera, sampled.as_ref(), s, t);
+                    let w = mis_weight(&scene, &cam, &light, &camera, sampled.as_ref(), s, t, eta);
+                    let b = brute_weight(
+                        &scene,
+                        &cam,
+                        &light,
+                        &camera,
+                        sampled.as_ref(),
+                        s,
+                        t,
+                        f64::from(eta),
+                        false,
+                    );
                     if !b.is_finite() || b == 0.0 {
                         continue;
                     }
@@ -760,6 +880,68 @@ mod tests {
             }
         }
         assert!(checked > 1000, "{checked}");
+    }
+
+    /// The weight of a merge (the eye vertex `camera[t - 1]` with a light vertex at the same
+    /// point, reached from `light[m - 1]`) against the balance heuristic from scratch over
+    /// every join and merge of the path.
+    #[test]
+    fn merge_weights_match_the_balance_heuristic_from_scratch() {
+        let world = World::build(
+            scene::load("builtin:cornell_box_classic".as_ref(), &LoadOptions::default()).unwrap(),
+        );
+        let scene = RenderScene::new(&world);
+        let cam = super::super::scene_camera(&world, 1.0).unwrap();
+        let eta = 2.0f32;
+        let mut rng = stream(9, 0, 0);
+        let (mut camera, mut light) = (Vec::new(), Vec::new());
+        let mut rays = 0;
+        let (mut checked, mut weight_sum) = (0, 0.0f64);
+        for n in 0..400 {
+            let (x, y) = (n % 16, (n / 16) % 16);
+            camera.clear();
+            let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 16.0, (y as f32 + 0.5) / 16.0), Vec2::ZERO);
+            camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+            let pdf_dir = cam.pdf_we(ray.origin, ray.dir).1;
+            random_walk(&scene, ray, Vec3::ONE, pdf_dir, 8, Mode::Radiance, &mut rng, &mut camera, &mut rays);
+            light_subpath(&scene, 6, &mut rng, &mut light, &mut rays);
+            for t in 2..=camera.len() {
+                for m in 1..=light.len() {
+                    if m + t > 8 || camera[t - 1].bsdf.is_delta() {
+                        continue;
+                    }
+                    let mut photon = camera[t - 1];
+                    photon.wo = (light[m - 1].p - photon.p).normalize();
+                    photon.pdf_fwd = if m == 1 {
+                        light[0].pdf_light(&scene, &photon)
+                    } else {
+                        light[m - 1].pdf(&scene, &cam, Some(&light[m - 2]), &photon)
+                    };
+                    // Only paths that carry light: the photon could have arrived, and the eye
+                    // vertex scatters it towards the camera.
+                    let q = &light[m - 1];
+                    let arrives = if m == 1 { q.le(&scene, &photon) } else { q.f(&photon) };
+                    if arrives == Vec3::ZERO || camera[t - 1].f(q) == Vec3::ZERO {
+                        continue;
+                    }
+                    let mut joined: Vec<Vertex> = light[..m].to_vec();
+                    joined.push(photon);
+                    let w = merge_weight(&scene, &cam, &joined, &camera, t, eta);
+                    let sampled = (m == 1).then_some(&light[0]);
+                    let b = brute_weight(&scene, &cam, &light, &camera, sampled, m, t, f64::from(eta), true);
+                    if !b.is_finite() || b == 0.0 {
+                        continue;
+                    }
+                    checked += 1;
+                    weight_sum += b;
+                    assert!((f64::from(w) - b).abs() <= 1e-2 * b.max(1e-2), "m {m} t {t}: {w} vs {b}");
+                }
+            }
+        }
+        let mean = weight_sum / f64::from(checked);
+        assert!(checked > 1000, "{checked}");
+        // Merges neither negligible nor alone, so the joins' terms are tested too.
+        assert!((0.02..0.98).contains(&mean), "mean merge weight {mean}");
     }
 
     /// Eye paths `E D S..S L` (a Lambert vertex, then mirrors and glass, then a cosine emitter):
@@ -792,7 +974,7 @@ mod tests {
             if camera[t - 1].le(&scene, &camera[t - 2]) == Vec3::ZERO {
                 continue;
             }
-            let w = f64::from(mis_weight(&scene, &cam, &light, &camera, None, 0, t));
+            let w = f64::from(mis_weight(&scene, &cam, &light, &camera, None, 0, t, 0.0));
             let (e, d) = (camera[0].p, camera[1].p);
             let to_d = (d - e).normalize();
             let p_e =

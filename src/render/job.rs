@@ -32,9 +32,10 @@ pub fn plan(world: &World, options: &RenderOptions, scene_label: &str) -> anyhow
         IntegratorKind::Sppm | IntegratorKind::Ppm => super::sppm::BYTES_PER_PIXEL,
         _ => BYTES_PER_PIXEL,
     };
+    let light_paths = if s.integrator == IntegratorKind::Vcm { super::vcm::light_path_bytes(&s) } else { 0 };
     crate::io::memory::check_fits(
         &format!("a {}x{} render", s.width, s.height),
-        pixels * bytes_per_pixel + world.accel.memory_bytes() as u64,
+        (pixels * bytes_per_pixel).saturating_add(light_paths) + world.accel.memory_bytes() as u64,
     )?;
     let camera =
         camera(world, options, s.width as f32 / s.height as f32).with_context(|| scene_label.to_string())?;

@@ -1,6 +1,6 @@
 //! The image simulator: a camera, BSDFs, lights and the integrators (`raycast`, `whitted`,
 //! `distributed`, `path`, from the lights `light` and `bdpt`, the photon mappers `sppm` and
-//! `ppm`, Metropolis light transport `pssmlt`, the view-independent `radiosity`, and through
+//! `ppm`, vertex connection and merging `vcm`, Metropolis light transport `pssmlt`, the view-independent `radiosity`, and through
 //! participating media `volpath` and `raymarch`) over the shared tracing core.
 //!
 //! Rendering is tile-parallel (rayon) and deterministic: pixel `i` draws all its random numbers
@@ -33,6 +33,7 @@ pub mod medium;
 pub mod options;
 pub mod path;
 pub mod photon_grid;
+pub mod point_grid;
 pub mod pssmlt;
 pub mod radiosity;
 pub mod raycast;
@@ -43,6 +44,7 @@ pub mod spectral;
 pub mod spectrum;
 pub mod splat;
 pub mod sppm;
+pub mod vcm;
 pub mod volpath;
 pub mod whitted;
 
@@ -116,11 +118,14 @@ pub enum IntegratorKind {
     /// Spectral path tracing ([`spectral`]): four wavelengths a path, RGB colours up-sampled
     /// to spectra, dispersive glass.
     Spectral,
+    /// Vertex connection and merging ([`vcm`], Georgiev et al. 2012): BDPT's joins and photon
+    /// merges under one MIS, `spp` iterations.
+    Vcm,
 }
 
 impl IntegratorKind {
     /// Names of the integrators, in declaration order.
-    pub const NAMES: [&'static str; 13] = [
+    pub const NAMES: [&'static str; 14] = [
         "raycast",
         "whitted",
         "distributed",
@@ -134,6 +139,7 @@ impl IntegratorKind {
         "volpath",
         "raymarch",
         "spectral",
+        "vcm",
     ];
 
     /// The integrator's name.
@@ -158,7 +164,7 @@ impl IntegratorKind {
     /// Whether the integrator traces from the lights and splats onto the film (rendered by
     /// [`light::render_on`] or [`bdpt::render_on`], not pixel by pixel).
     pub fn splats(self) -> bool {
-        matches!(self, Self::Light | Self::Bdpt | Self::Pssmlt)
+        matches!(self, Self::Light | Self::Bdpt | Self::Pssmlt | Self::Vcm)
     }
 }
 
@@ -179,6 +185,7 @@ impl FromStr for IntegratorKind {
             "volpath" => Ok(Self::Volpath),
             "raymarch" => Ok(Self::Raymarch),
             "spectral" => Ok(Self::Spectral),
+            "vcm" => Ok(Self::Vcm),
             _ => Err(format!("unknown integrator \"{s}\" (known: {})", Self::NAMES.join(", "))),
         }
     }
@@ -667,7 +674,8 @@ pub fn radiance(
         | IntegratorKind::Pssmlt
         | IntegratorKind::Volpath
         | IntegratorKind::Raymarch
-        | IntegratorKind::Spectral => {
+        | IntegratorKind::Spectral
+        | IntegratorKind::Vcm => {
             path::trace(scene, ray, max_depth, sampler, rays, path::PathMode::Full, clamp)
         }
     }
@@ -809,6 +817,7 @@ pub fn render_on(
         IntegratorKind::Light => return Ok(light::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Bdpt => return Ok(bdpt::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Pssmlt => return Ok(pssmlt::render_on(cluster, scene, camera, settings, progress)),
+        IntegratorKind::Vcm => return Ok(vcm::render_on(cluster, scene, camera, settings, progress)),
         IntegratorKind::Sppm | IntegratorKind::Ppm => {
             return Ok(sppm::render_on(cluster, scene, camera, settings, progress));
         }

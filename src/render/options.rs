@@ -40,8 +40,9 @@ pub struct RenderOptions {
     /// tracing), sppm (stochastic progressive photon mapping), ppm (progressive photon
     /// mapping), radiosity (hierarchical radiosity), pssmlt (Metropolis light transport) or
     /// volpath (volumetric path tracing through a fog, --fog-*, and the scene's [[media]]),
-    /// raymarch (ray marching through the same media, single scattering) or spectral
-    /// (spectral path tracing, dispersive glass) (default: the scene's, else path).
+    /// raymarch (ray marching through the same media, single scattering), spectral
+    /// (spectral path tracing, dispersive glass) or vcm (vertex connection and merging:
+    /// bdpt plus photon merges) (default: the scene's, else path).
     #[arg(long)]
     pub integrator: Option<String>,
     /// Spectral rendering: the same as --integrator spectral.
@@ -86,15 +87,17 @@ pub struct RenderOptions {
     /// free path, or of the grid's majorant, within 1/1024 to 1/16 of each segment).
     #[arg(long = "raymarch-step", value_name = "METRES", allow_hyphen_values = true)]
     pub raymarch_step_m: Option<f32>,
-    /// sppm and ppm: iterations, each one camera sample a pixel and one photon pass (default:
+    /// sppm, ppm and vcm: iterations, each one camera sample a pixel and one photon pass (default:
     /// the samples per pixel, as pbrt-v4 reads its pixel samples).
     #[arg(long)]
     pub iterations: Option<u32>,
-    /// sppm and ppm: photons traced an iteration (default: one a pixel, as pbrt-v4).
+    /// sppm, ppm and vcm: photons (vcm: light subpaths, at least one a pixel) traced an
+    /// iteration (default: one a pixel, as pbrt-v4).
     #[arg(long)]
     pub photons: Option<u64>,
     /// sppm and ppm: initial gather radius, metres; it shrinks as photons arrive (alpha 2/3)
-    /// (default: 1 % of the diagonal of the box around the visible points).
+    /// (default: 1 % of the diagonal of the box around the visible points). vcm: the initial
+    /// merging radius, shrinking as i^-1/8 (default: 2 % of the light vertices' box diagonal).
     #[arg(long = "sppm-radius", value_name = "METRES", allow_hyphen_values = true)]
     pub sppm_radius_m: Option<f32>,
     /// The radiosity integrator's options.
@@ -204,7 +207,11 @@ fn refuse_foreign_flags(
     let march_flags = if options.raymarch_step_m.is_some() { vec!["--raymarch-step"] } else { vec![] };
     let clamp_flags = if options.clamp_indirect.is_some() { vec!["--clamp-indirect"] } else { vec![] };
     let owners: [(Vec<&str>, bool, &str); 6] = [
-        (photon_flags, matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm), "sppm or ppm"),
+        (
+            photon_flags,
+            matches!(integrator, IntegratorKind::Sppm | IntegratorKind::Ppm | IntegratorKind::Vcm),
+            "sppm, ppm or vcm",
+        ),
         (options.mlt.given(), integrator == IntegratorKind::Pssmlt, "pssmlt"),
         (options.radiosity.given(), integrator == IntegratorKind::Radiosity, "radiosity"),
         (

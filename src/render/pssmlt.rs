@@ -332,7 +332,7 @@ pub fn path_contribution(
     }
     sampler.start_stream(CONNECT_STREAM);
     let u = sampler.next_2d();
-    match connect(scene, camera_model, light, camera, s, t, u, rays) {
+    match connect(scene, camera_model, light, camera, s, t, u, 0.0, rays) {
         Some((l, splat)) => (l * n, splat.unwrap_or(fp)),
         None => (Vec3::ZERO, fp),
     }
