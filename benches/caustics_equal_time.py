@@ -3,8 +3,9 @@
 
 Renders a path-traced reference as several independent seeds (so its own noise can be
 estimated and taken out of each RMSE), then times each integrator in alternating rounds and
-reports, per integrator, the median wall time, the RMSE against the reference (raw, and with
-the reference's variance subtracted), and the ratio of `path`'s RMSE scaled to the same time
+reports, per integrator, the median wall time, the RMSE against the reference (with the
+reference's variance subtracted; mean squared error over the rounds, each round a new seed),
+and the ratio of `path`'s RMSE scaled to the same time
 (`RMSE_path * sqrt(t_path / t)`) over the integrator's. The RMSE is also split between the
 pixels that see a diffuse surface first and those that see the glass ball or the mirror
 (computed from the scene's geometry), where no bidirectional strategy beats the path tracer.
@@ -42,6 +43,8 @@ CONFIGS = {
     "vcm": ["--spp", "128", "--integrator", "vcm"],
     "vcm_2k": ["--spp", "96", "--integrator", "vcm", "--photons", "2048"],
     "vcm_4k": ["--spp", "64", "--integrator", "vcm", "--photons", "4096"],
+    "vcm_8k": ["--spp", "32", "--integrator", "vcm", "--photons", "8192"],
+    "vcm_4k_r3": ["--spp", "64", "--integrator", "vcm", "--photons", "4096", "--sppm-radius", "0.03"],
 }
 
 
@@ -98,6 +101,7 @@ def main():
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--ref-seeds", type=int, default=8)
     ap.add_argument("--ref-spp", type=int, default=32768, help="samples per pixel of each reference seed")
+    ap.add_argument("--only", default="", help="comma-separated integrators to run besides path (default: all)")
     a = ap.parse_args()
     os.makedirs(a.workdir, exist_ok=True)
     refs = []
@@ -111,15 +115,18 @@ def main():
     ref = refs.mean(0)
     ref_var = refs.var(0, ddof=1).mean(2) / len(refs)  # per pixel, of the reference's mean
     mask = specular_mask()
-    times = {n: [] for n in CONFIGS}
-    for _ in range(a.rounds):
-        for n, args in CONFIGS.items():
-            times[n].append(render(a.propsim, os.path.join(a.workdir, f"{n}.npy"), args, 1))
+    configs = {n: c for n, c in CONFIGS.items() if n == "path" or not a.only or n in a.only.split(",")}
+    times = {n: [] for n in configs}
+    err = {n: np.zeros_like(ref_var) for n in configs}
+    # Round k renders seed k + 1 with every integrator in turn: the times alternate, and the
+    # squared errors are averaged over the rounds' seeds (one seed's error swings with the
+    # few rare bright paths it happens to find).
+    for k in range(a.rounds):
+        for n, args in configs.items():
+            out = os.path.join(a.workdir, f"{n}.npy")
+            times[n].append(render(a.propsim, out, args, k + 1))
+            err[n] += (((np.load(out) - ref) ** 2).mean(2) - ref_var) / a.rounds
     t_path = statistics.median(times["path"])
-    err = {}
-    for n in CONFIGS:
-        e2 = ((np.load(os.path.join(a.workdir, f"{n}.npy")) - ref) ** 2).mean(2) - ref_var
-        err[n] = e2
     print(f"reference: {len(refs)} x {a.ref_spp} spp, its own RMSE {np.sqrt(ref_var.mean()):.4f}; "
           f"{mask.sum()} of {mask.size} pixels see the ball or the mirror first")
     print("| integrator | median time | RMSE | ratio at equal time | diffuse-seen ratio | specular-seen ratio |")

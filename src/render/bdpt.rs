@@ -7,8 +7,10 @@
 //! sampling with the balance heuristic, computed from each vertex's forward and reverse
 //! area densities (Veach 1997, sec. 10.2; pbrt-v3 sec. 16.3.4).
 //!
-//! Subpaths end by Russian roulette from bounce 5 (as `path`), which keeps every strategy
-//! unbiased; the MIS weights leave the roulette out, which keeps them summing to one.
+//! Subpaths end by Russian roulette at every bounce, continuing with the probability of the
+//! throughput's change (the albedo of the sampled lobe, as SmallVCM does), which keeps every
+//! strategy unbiased and subpaths short; the MIS weights leave the roulette out, which keeps
+//! them summing to one.
 //! The background is reached only by camera subpaths (it is not sampled from the lights),
 //! so escaping camera paths take it in full. Numbers come from each pixel's random stream;
 //! the `t = 1` splats are summed in fixed point ([`super::splat`]), so the image is the same
@@ -213,6 +215,7 @@ pub(super) fn random_walk<R: Uniforms>(
         }
         let wo = v.frame.to_local(-ray.dir);
         let Some(s) = v.bsdf.sample(wo, u, uc) else { break };
+        let before = beta.max_element();
         beta *= if mode == Mode::Importance { importance_weight(&v.bsdf, wo, &s) } else { s.weight() };
         pdf_fwd = s.pdf;
         let mut pdf_rev = v.bsdf.pdf(s.wi, wo);
@@ -228,19 +231,84 @@ pub(super) fn random_walk<R: Uniforms>(
         }
         let here = path.len() - 1;
         path[prev].pdf_rev = path[here].convert_density(pdf_rev, &path[prev]);
-        let bounces = here as u32;
-        if bounces >= super::path::RR_START_DEPTH {
-            let q = beta.max_element().min(1.0);
-            if q <= 0.0 || u_rr >= q {
-                break;
-            }
-            beta /= q;
-        } else if beta == Vec3::ZERO {
+        // Russian roulette at every bounce on the throughput's change, the scattering's albedo
+        // (SmallVCM's continuation probability): each further vertex costs joins with every
+        // vertex of the other subpath, so long subpaths of little weight are cut early.
+        let q = if here >= RR_START_VERTEX { (beta.max_element() / before).min(1.0) } else { 1.0 };
+        if !(q > 0.0) || u_rr >= q {
             break;
         }
+        beta /= q;
         ray = Ray::spawn(hit.point, hit.normal, v.frame.to_world(s.wi));
     }
     Vec3::ZERO
+}
+
+/// The first subpath vertex (after the camera or light point) that plays Russian roulette.
+const RR_START_VERTEX: usize = 3;
+
+/// Camera rays a split pixel spends, per sample, on the light it sees by way of mirrors and
+/// glass alone ([`specular_emission`]).
+pub(super) const SPECULAR_SPLIT: u32 = 8;
+
+/// Whether pixel `(x, y)` shows a Dirac surface (mirror, glass) or an emitter at any of 3 x 3
+/// fixed points in it, through the lens centre: such pixels are split ([`specular_emission`]).
+/// A fixed choice per pixel, independent of the samples, so the split stays unbiased.
+pub(super) fn splits_pixel(scene: &RenderScene, camera: &Camera, s: &RenderSettings, x: u32, y: u32) -> bool {
+    (0..9).any(|k| {
+        let o = Vec2::new((k % 3) as f32 + 0.5, (k / 3) as f32 + 0.5) / 3.0;
+        let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
+        scene.intersect(&camera.ray(fp, Vec2::splat(0.5))).is_some_and(|hit| {
+            scene.surfaces[hit.surface as usize].bsdf.is_delta() || scene.light_of(&hit).is_some()
+        })
+    })
+}
+
+/// The light pixel `(x, y)` sees directly or by way of Dirac bounces only (eye paths
+/// `E S..S L`), averaged over `n` camera rays. Only the camera can sample these paths (no
+/// join or merge ends at a Dirac vertex), so a split pixel takes them `n` times a sample at
+/// the cost of a few rays each, rather than once at the cost of a whole bidirectional sample,
+/// and leaves them out of the joins ([`connect_all`]): the pixel's estimate is the sum of the
+/// two, unbiased.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn specular_emission<R: Uniforms>(
+    scene: &RenderScene,
+    camera: &Camera,
+    s: &RenderSettings,
+    x: u32,
+    y: u32,
+    n: u32,
+    rng: &mut R,
+    rays: &mut u64,
+) -> Vec3 {
+    let mut sum = Vec3::ZERO;
+    for _ in 0..n {
+        let o = rng.next_2d();
+        let lens = if camera.aperture_radius_m > 0.0 { rng.next_2d() } else { Vec2::ZERO };
+        let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
+        let mut ray = camera.ray(fp, lens);
+        let mut beta = Vec3::ONE;
+        for bounce in 0..=s.max_depth {
+            *rays += 1;
+            let Some(hit) = scene.intersect(&ray) else { break };
+            if let Some(l) = scene.light_of(&hit) {
+                sum += beta * scene.lights.lights[l].le_towards(hit.normal, -ray.dir);
+            }
+            let bsdf = scene.surfaces[hit.surface as usize].bsdf;
+            if !bsdf.is_delta() || bounce == s.max_depth {
+                break;
+            }
+            let frame = Frame::new(hit.normal);
+            let (u, uc) = (rng.next_2d(), rng.next_1d());
+            let Some(bs) = bsdf.sample(frame.to_local(-ray.dir), u, uc) else { break };
+            beta *= bs.weight();
+            if beta == Vec3::ZERO {
+                break;
+            }
+            ray = Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi));
+        }
+    }
+    sum / n as f32
 }
 
 /// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
@@ -473,8 +541,7 @@ fn sample(
     scene: &RenderScene,
     camera_model: &Camera,
     s: &RenderSettings,
-    x: u32,
-    y: u32,
+    (x, y, split): (u32, u32, bool),
     rng: &mut Rng64,
     paths: &mut (Vec<Vertex>, Vec<Vertex>),
     film: &mut SplatFilm,
@@ -484,14 +551,19 @@ fn sample(
     let o = u2(rng);
     let lens = if camera_model.aperture_radius_m > 0.0 { u2(rng) } else { Vec2::ZERO };
     let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-    let l = camera_subpath(scene, camera_model, fp, lens, s.max_depth as usize + 2, rng, camera, rays);
+    let mut l = camera_subpath(scene, camera_model, fp, lens, s.max_depth as usize + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
-    l + connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, rng, film, rays)
+    l += connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, split, rng, film, rays);
+    if split {
+        l += specular_emission(scene, camera_model, s, x, y, SPECULAR_SPLIT, rng, rays);
+    }
+    l
 }
 
 /// Every join of `light` and `camera` of at most `max_depth` bounces, weighted by MIS (with
 /// merging strategies counted when `eta > 0`): the radiance of the strategies with `t >= 2`;
-/// the `t = 1` ones are splatted on `film`.
+/// the `t = 1` ones are splatted on `film`. With `split`, emitters the camera subpath reaches
+/// by Dirac bounces alone are left out ([`specular_emission`] takes them).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn connect_all<R: Uniforms>(
     scene: &RenderScene,
@@ -500,15 +572,23 @@ pub(super) fn connect_all<R: Uniforms>(
     light: &[Vertex],
     camera: &[Vertex],
     eta: f32,
+    split: bool,
     rng: &mut R,
     film: &mut SplatFilm,
     rays: &mut u64,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
+    // Camera vertices up to which every bounce was Dirac.
+    let specular_prefix = 1 + camera.iter().skip(1).take_while(|v| v.delta).count();
     for t in 1..=camera.len() {
         for si in 0..=light.len() {
             let depth = (si + t) as i64 - 2;
             if (si == 1 && t == 1) || depth < 0 || depth > i64::from(max_depth) {
+                continue;
+            }
+            if split && si == 0 && t <= specular_prefix + 1 {
+                // Still draw the numbers, so a pixel's stream does not depend on the split.
+                rng.next_2d();
                 continue;
             }
             let u = rng.next_2d();
@@ -674,10 +754,18 @@ pub fn render_on(
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let (mut rng, _) = super::pixel_stream(settings, x, y);
+                        let split = splits_pixel(scene, camera, settings, x, y);
                         let mut sum = Vec3::ZERO;
                         for _ in 0..settings.spp {
                             let l = sample(
-                                scene, camera, settings, x, y, &mut rng, &mut paths, &mut film, &mut rays,
+                                scene,
+                                camera,
+                                settings,
+                                (x, y, split),
+                                &mut rng,
+                                &mut paths,
+                                &mut film,
+                                &mut rays,
                             );
                             if l.is_finite() {
                                 sum += l;

@@ -32,7 +32,10 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::bdpt::{Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight};
+use super::bdpt::{
+    SPECULAR_SPLIT, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
+    specular_emission, splits_pixel,
+};
 use super::point_grid::PointGrid;
 use super::splat::{SplatFilm, finish};
 use super::{Camera, Film, RenderOutput, RenderScene, RenderSettings, TILE, u2};
@@ -47,8 +50,13 @@ pub const CAMERA_DOMAIN: u64 = 0x5643_4341; // "VCCA"
 /// (Georgiev et al. 2012, sec. 5, give 2/3 to 0.75 as the useful range).
 pub const ALPHA: f32 = 0.75;
 /// The default initial merging radius as a fraction of the diagonal of the bounding box of
-/// the first iteration's light vertices.
+/// the first iteration's light vertices, at [`REFERENCE_LIGHT_PATHS`] light subpaths an
+/// iteration; with `N` subpaths it is scaled by `sqrt(REFERENCE_LIGHT_PATHS / N)`, so that a
+/// disc holds about as many light vertices whatever the resolution (and a merge costs about
+/// the same), while the disc shrinks with the pixels.
 pub const DEFAULT_RADIUS_FRACTION: f32 = 0.02;
+/// See [`DEFAULT_RADIUS_FRACTION`]: the light subpaths of a 32 x 32 image.
+pub const REFERENCE_LIGHT_PATHS: f32 = 1024.0;
 /// Light subpaths a work unit.
 const BLOCK: u64 = 64;
 
@@ -138,16 +146,17 @@ fn mergeable(v: &Vertex) -> bool {
     v.kind == VertexKind::Surface && !v.bsdf.is_delta()
 }
 
-/// [`DEFAULT_RADIUS_FRACTION`] of the diagonal of the light vertices' bounding box (1 mm when
-/// there are none or they coincide).
-fn default_radius(paths: &LightPaths) -> f32 {
+/// [`DEFAULT_RADIUS_FRACTION`] of the diagonal of the light vertices' bounding box, scaled
+/// for `n` light subpaths an iteration (1 mm when there are none or they coincide).
+fn default_radius(paths: &LightPaths, n: u64) -> f32 {
     let (lo, hi) = paths
         .vertices
         .iter()
         .filter(|v| mergeable(v))
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), v| (lo.min(v.p), hi.max(v.p)));
     let d = (hi - lo).length();
-    if d.is_finite() && d > 0.0 { DEFAULT_RADIUS_FRACTION * d } else { 1e-3 }
+    let scale = (REFERENCE_LIGHT_PATHS / n.max(1) as f32).sqrt();
+    if d.is_finite() && d > 0.0 { DEFAULT_RADIUS_FRACTION * d * scale } else { 1e-3 }
 }
 
 /// What one iteration's camera pass reads.
@@ -167,7 +176,7 @@ fn sample(
     scene: &RenderScene,
     camera_model: &Camera,
     s: &RenderSettings,
-    (x, y): (u32, u32),
+    (x, y, split): (u32, u32, bool),
     iteration: &Iteration,
     rng: &mut Rng64,
     camera: &mut Vec<Vertex>,
@@ -181,7 +190,7 @@ fn sample(
     let mut l = camera_subpath(scene, camera_model, fp, lens, max_depth + 2, rng, camera, rays);
     let paths = iteration.paths;
     let own = paths.path(y as usize * s.width as usize + x as usize);
-    l += connect_all(scene, camera_model, s.max_depth, own, camera, iteration.eta, rng, film, rays);
+    l += connect_all(scene, camera_model, s.max_depth, own, camera, iteration.eta, split, rng, film, rays);
     for t in 2..=camera.len() {
         let z = &camera[t - 1];
         if z.delta || z.bsdf.is_delta() {
@@ -204,6 +213,9 @@ fn sample(
             merged += photon.beta * f * w;
         });
         l += z.beta * merged * iteration.norm;
+    }
+    if split {
+        l += specular_emission(scene, camera_model, s, x, y, SPECULAR_SPLIT, rng, rays);
     }
     l
 }
@@ -229,6 +241,11 @@ pub fn render_on(
         tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
     let min_len = (mine.len() / (8 * rayon::current_num_threads())).max(1);
     let mut sums = vec![Vec3::ZERO; pixels];
+    // Which pixels split off the light seen through mirrors and glass (a fixed choice).
+    let split: Vec<bool> = (0..pixels)
+        .into_par_iter()
+        .map(|i| splits_pixel(scene, camera, settings, i as u32 % w, i as u32 / w))
+        .collect();
     let mut splats = SplatFilm::new(w, h);
     let (mut rays, mut r0) = (0u64, settings.photons.initial_radius_m);
     for it in 0..settings.spp {
@@ -238,7 +255,7 @@ pub fn render_on(
         if cluster.is_root() {
             rays += light_rays;
         }
-        let r_first = *r0.get_or_insert_with(|| default_radius(&paths));
+        let r_first = *r0.get_or_insert_with(|| default_radius(&paths, n));
         let r = r_first * ((it + 1) as f32).powf(0.5 * (ALPHA - 1.0));
         let area = PI * r * r;
         let eta = n as f32 * area;
@@ -272,7 +289,7 @@ pub fn render_on(
                                 scene,
                                 camera,
                                 settings,
-                                (x, y),
+                                (x, y, split[pixel as usize]),
                                 &iteration,
                                 &mut rng,
                                 &mut camera_path,
