@@ -209,7 +209,8 @@ fn mpi_light_transport_integrators_are_byte_identical_for_1_2_and_3_ranks() {
     // on tiles other ranks render) or share one normalisation (pssmlt's bootstrap), as linear
     // EXR so that every bit of every pixel is compared. 100 x 60 pixels, 28 tiles; sppm's
     // 20,000 photons an iteration are 5 blocks of 4,096, and 37 chains and 3,000 bootstrap
-    // samples a depth split over no rank count evenly.
+    // samples a depth split over no rank count evenly; vcm's 7,000 light subpaths (every rank
+    // traces them all) are more than the 6,000 pixels that each join one.
     let small =
         ["builtin:cornell_box", "-o", "out/render.exr", "--width", "100", "--height", "60", "--spp", "8"];
     for (integrator, extra) in [
@@ -217,6 +218,7 @@ fn mpi_light_transport_integrators_are_byte_identical_for_1_2_and_3_ranks() {
         ("bdpt", &[][..]),
         ("sppm", &["--photons", "20000"][..]),
         ("pssmlt", &["--mlt-bootstrap", "3000", "--mlt-chains", "37"][..]),
+        ("vcm", &["--photons", "7000"][..]),
     ] {
         let mut args = vec!["render", "--integrator", integrator];
         args.extend(small);
@@ -242,6 +244,7 @@ fn mpi_radiosity_fields_fog_prism_and_bent_rays_are_byte_identical_for_1_2_and_3
         ("spectral", "rooms/prism/scene.toml", "spectral", &[][..]),
         ("smoke-volpath", "rooms/smoke/scene.toml", "volpath", &[][..]),
         ("smoke-raymarch", "rooms/smoke/scene.toml", "raymarch", &[][..]),
+        ("caustics-vcm", "rooms/caustics/scene.toml", "vcm", &[][..]),
     ] {
         let scene = format!("{MANIFEST_DIR}/{scene}");
         let mut args = vec!["render", &scene, "--integrator", integrator, "-o", "out/render.exr"];

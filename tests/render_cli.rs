@@ -211,7 +211,7 @@ fn bad_inputs_give_one_line_errors() {
     {
         assert_clean_error(
             &with(&["--integrator", integrator, flag, "2"]),
-            &[&format!("{flag} applies to --integrator sppm or ppm, not {integrator}")],
+            &[&format!("{flag} applies to --integrator sppm, ppm or vcm, not {integrator}")],
         );
     }
     for (flag, value) in [

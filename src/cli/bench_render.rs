@@ -21,7 +21,8 @@ pub struct BenchRenderArgs {
     #[arg(long = "max-depth", default_value_t = 8)]
     pub max_depth: u32,
     /// raycast, whitted, distributed, path, light, bdpt, sppm or ppm (spp = iterations, one
-    /// photon a pixel an iteration), radiosity, or pssmlt (spp = mutations per pixel).
+    /// photon a pixel an iteration), vcm (spp = iterations, one light subpath a pixel),
+    /// radiosity, or pssmlt (spp = mutations per pixel).
     #[arg(long, default_value = "path")]
     pub integrator: String,
     /// Timed runs; the median is reported.

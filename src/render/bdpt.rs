@@ -235,7 +235,7 @@ pub(super) fn random_walk<R: Uniforms>(
         // (SmallVCM's continuation probability): each further vertex costs joins with every
         // vertex of the other subpath, so long subpaths of little weight are cut early.
         let q = if here >= RR_START_VERTEX { (beta.max_element() / before).min(1.0) } else { 1.0 };
-        if !(q > 0.0) || u_rr >= q {
+        if q.is_nan() || q <= 0.0 || u_rr >= q {
             break;
         }
         beta /= q;
