@@ -41,10 +41,6 @@ CONFIGS = {
     "sppm_3k": ["--integrator", "sppm", "--iterations", "1024", "--photons", "3000", "--sppm-radius", "0.05"],
     "pssmlt": ["--spp", "1024", "--integrator", "pssmlt"],
     "vcm": ["--spp", "128", "--integrator", "vcm"],
-    "vcm_2k": ["--spp", "96", "--integrator", "vcm", "--photons", "2048"],
-    "vcm_4k": ["--spp", "64", "--integrator", "vcm", "--photons", "4096"],
-    "vcm_8k": ["--spp", "32", "--integrator", "vcm", "--photons", "8192"],
-    "vcm_4k_r3": ["--spp", "64", "--integrator", "vcm", "--photons", "4096", "--sppm-radius", "0.03"],
 }
 
 

@@ -381,7 +381,7 @@ struct Junction {
 /// with the merging strategies of vertex connection and merging when `eta` (the merging
 /// paths times the disc area, `N pi r^2`) is positive: a merge at vertex `x` has the density
 /// of the connection that ends the eye subpath at `x` times `eta` and the light's density of
-/// `x` (Georgiev et al. 2012, sec. 4.2-4.3). Merges need a non-Dirac vertex with at least one
+/// `x` (Georgiev et al. 2012, in docs/references.md). Merges need a non-Dirac vertex with at least one
 /// light bounce before it and the camera vertex after.
 fn other_strategies(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, j: &Junction, eta: f32) -> f32 {
     let cam_at = |i: usize| -> Densities {
@@ -498,7 +498,7 @@ pub(super) fn mis_weight(
 /// The weight of merging the eye vertex `camera[t - 1]` with the light vertex `light[m]`
 /// (`m = light.len() - 1 >= 1`, a photon within the merging radius), `eta = N pi r^2`: the
 /// merge's density over the sum of every strategy's, the path read as the eye subpath
-/// `camera[..t]` and the light subpath `light[..m]` (Georgiev et al. 2012, eq. 10-12). At the
+/// `camera[..t]` and the light subpath `light[..m]` (Georgiev et al. 2012). At the
 /// junction the light's density of the merged vertex is the photon's own; a Dirac light
 /// vertex before it keeps its subpath's densities (no connection could end there).
 pub(super) fn merge_weight(

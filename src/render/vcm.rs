@@ -16,7 +16,7 @@
 //!    `beta_eye f(wo, wi) beta_light / (N pi r^2)` times the merge's MIS weight.
 //!    The weights count the merges as strategies of density `eta p_light(x)` over the join's
 //!    that ends the eye path at `x`, `eta = N pi r^2` ([`super::bdpt::merge_weight`]).
-//! 3. The radius shrinks as `r_i = r_0 i^((alpha - 1) / 2)` (Georgiev et al. 2012, sec. 5;
+//! 3. The radius shrinks as `r_i = r_0 i^((alpha - 1) / 2)` (Georgiev et al. 2012;
 //!    SmallVCM's schedule, alpha 0.75), so the merges' bias vanishes as iterations grow while
 //!    their variance stays bounded: the estimator is consistent.
 //!
@@ -47,7 +47,7 @@ pub const LIGHT_DOMAIN: u64 = 0x5643_4c54; // "VCLT"
 /// Random-stream domain of the camera samples.
 pub const CAMERA_DOMAIN: u64 = 0x5643_4341; // "VCCA"
 /// The radius reduction exponent alpha of `r_i = r_0 i^((alpha - 1) / 2)`: SmallVCM's default
-/// (Georgiev et al. 2012, sec. 5, give 2/3 to 0.75 as the useful range).
+/// (SmallVCM, with [Georgiev2012] in docs/references.md).
 pub const ALPHA: f32 = 0.75;
 /// The default initial merging radius as a fraction of the diagonal of the bounding box of
 /// the first iteration's light vertices, at [`REFERENCE_LIGHT_PATHS`] light subpaths an
