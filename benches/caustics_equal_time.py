@@ -40,7 +40,7 @@ CONFIGS = {
     "sppm": ["--integrator", "sppm", "--iterations", "1024", "--photons", "6000", "--sppm-radius", "0.05"],
     "sppm_3k": ["--integrator", "sppm", "--iterations", "1024", "--photons", "3000", "--sppm-radius", "0.05"],
     "pssmlt": ["--spp", "1024", "--integrator", "pssmlt"],
-    "vcm": ["--spp", "128", "--integrator", "vcm"],
+    "vcm": ["--spp", "256", "--integrator", "vcm"],
 }
 
 

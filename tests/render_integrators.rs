@@ -18,6 +18,17 @@ use propsim::scene::{self, LoadOptions, World};
 /// the test asks for less than 0.8 at 4x and again at 16x.
 #[test]
 fn sppm_error_falls_as_iterations_grow_on_the_cornell_box() {
+    error_falls_as_iterations_grow(IntegratorKind::Sppm, Some(8192));
+}
+
+/// VCM converges too, at its default merging radius (the bias of its merges shrinks with
+/// the radius, `r_i = r_0 i^(-1/8)`, and their weight with it): the same test as SPPM's.
+#[test]
+fn vcm_error_falls_as_iterations_grow_on_the_cornell_box() {
+    error_falls_as_iterations_grow(IntegratorKind::Vcm, None);
+}
+
+fn error_falls_as_iterations_grow(integrator: IntegratorKind, photons: Option<u64>) {
     let world = World::build(scene::load("builtin:cornell_box".as_ref(), &LoadOptions::default()).unwrap());
     let scene = RenderScene::new(&world);
     let cam = propsim::render::scene_camera(&world, 1.0).unwrap();
@@ -36,12 +47,12 @@ fn sppm_error_falls_as_iterations_grow_on_the_cornell_box() {
     };
     let mut errors = Vec::new();
     for iterations in [8, 32, 128] {
-        let mut s = settings(w, iterations, 8, IntegratorKind::Sppm, 1);
-        s.photons.photons_per_iteration = Some(8192);
+        let mut s = settings(w, iterations, 8, integrator, 1);
+        s.photons.photons_per_iteration = photons;
         let film = go(&scene, &cam, &s);
         let e = rmse(&film);
         eprintln!(
-            "sppm {iterations} iterations: RMSE {e:.5}, mean {:.4} (path {:.4})",
+            "{integrator:?} {iterations} iterations: RMSE {e:.5}, mean {:.4} (path {:.4})",
             film.mean(),
             reference.mean()
         );
