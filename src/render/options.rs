@@ -93,8 +93,9 @@ pub struct RenderOptions {
     /// sppm and ppm: photons traced an iteration (default: one a pixel, as pbrt-v4).
     #[arg(long)]
     pub photons: Option<u64>,
-    /// sppm and ppm: initial gather radius, metres; it shrinks as photons arrive (alpha 2/3)
-    /// (default: 1 % of the diagonal of the box around the visible points).
+    /// sppm and ppm: initial gather radius, metres, shrunk where a pilot pass finds photons
+    /// crowding, then as photons arrive (alpha 2/3) (default: the radius at which the median
+    /// pixel expects 50 photons an iteration).
     #[arg(long = "sppm-radius", value_name = "METRES", allow_hyphen_values = true)]
     pub sppm_radius_m: Option<f32>,
     /// The radiosity integrator's options.
