@@ -10,8 +10,10 @@
 //! 2. **Grid.** The visible points go into a hashed grid ([`super::photon_grid`]) with their
 //!    pixel's current radius `r`. In the first iteration a *pilot* photon pass (streams of
 //!    their own, not part of the estimate) counts the photons each visible point would
-//!    gather, and the pixels that count more than the median shrink their initial radius so
-//!    as to expect the median count ([`pilot_radii`] says why); the grid is then rebuilt.
+//!    gather; the pixels that count more than the median (or, without `--sppm-radius`, than
+//!    [`DEFAULT_MEDIAN_PHOTONS`], the count the radius is scaled for the median pixel to
+//!    expect) shrink their initial radius to expect that count ([`pilot_radii`] says why);
+//!    the grid is then rebuilt.
 //! 3. **Photon pass.** Photons leave the lights (chosen by power) and scatter as light-tracing
 //!    paths do; from their second hit on (the first is direct light, already in `Ld`) every
 //!    hit on a non-Dirac surface within `r` of a visible point adds `beta f(wo, wi)` to that
