@@ -95,10 +95,11 @@ pub struct RenderOptions {
     /// iteration (default: one a pixel, as pbrt-v4).
     #[arg(long)]
     pub photons: Option<u64>,
-    /// sppm and ppm: initial gather radius, metres; it shrinks as photons arrive (alpha 2/3)
-    /// (default: 1 % of the diagonal of the box around the visible points). vcm: the initial
-    /// merging radius, shrinking as i^-1/8 (default: 2 % of the light vertices' box diagonal at
-    /// 1024 light subpaths an iteration, times sqrt(1024 / subpaths)).
+    /// sppm and ppm: initial gather radius, metres, shrunk where a pilot pass finds photons
+    /// crowding, then as photons arrive (alpha 2/3) (default: the radius at which the median
+    /// pixel expects 50 photons an iteration). vcm: the initial merging radius, shrinking as
+    /// i^-1/8 (default: 2 % of the light vertices' box diagonal at 1024 light subpaths an
+    /// iteration, times sqrt(1024 / subpaths)).
     #[arg(long = "sppm-radius", value_name = "METRES", allow_hyphen_values = true)]
     pub sppm_radius_m: Option<f32>,
     /// The radiosity integrator's options.

@@ -8,7 +8,12 @@
 //!    the direct light there (a light sample and a BSDF sample combined by MIS, as the path
 //!    tracer does) to the pixel's direct light `Ld`.
 //! 2. **Grid.** The visible points go into a hashed grid ([`super::photon_grid`]) with their
-//!    pixel's current radius `r`.
+//!    pixel's current radius `r`. In the first iteration a *pilot* photon pass (streams of
+//!    their own, not part of the estimate) counts the photons each visible point would
+//!    gather; the pixels that count more than the median (or, without `--sppm-radius`, than
+//!    [`DEFAULT_MEDIAN_PHOTONS`], the count the radius is scaled for the median pixel to
+//!    expect) shrink their initial radius to expect that count ([`pilot_radii`] says why);
+//!    the grid is then rebuilt.
 //! 3. **Photon pass.** Photons leave the lights (chosen by power) and scatter as light-tracing
 //!    paths do; from their second hit on (the first is direct light, already in `Ld`) every
 //!    hit on a non-Dirac surface within `r` of a visible point adds `beta f(wo, wi)` to that
@@ -55,12 +60,22 @@ pub const CAMERA_DOMAIN: u64 = 0x5350_4341; // "SPCA"
 pub const DIRECT_DOMAIN: u64 = 0x5350_4e45; // "SPNE"
 /// Random-stream domain of the photons.
 pub const PHOTON_DOMAIN: u64 = 0x5048_4f54; // "PHOT"
+/// Random-stream domain of the pilot photons (the initial radii, [`pilot_radii`]).
+pub const PILOT_DOMAIN: u64 = 0x5049_4c54; // "PILT"
 /// The radius reduction parameter alpha (the fraction of new photons kept), Hachisuka and
 /// Jensen 2009 sec. 4.2 and pbrt-v4's value.
 pub const ALPHA: f32 = 2.0 / 3.0;
-/// The default initial radius as a fraction of the diagonal of the bounding box of the first
-/// iteration's visible points.
-pub const DEFAULT_RADIUS_FRACTION: f32 = 0.01;
+/// The pilot pass's provisional radius, without `--sppm-radius`, as a fraction of the diagonal
+/// of the bounding box of the first iteration's visible points.
+pub const DEFAULT_RADIUS_FRACTION: f32 = 0.05;
+/// Without `--sppm-radius`, the photons the median pixel expects an iteration within its
+/// initial radius. Measured (docs/render.md, "Cost per sample and caustics"): on the Cornell
+/// box and on rooms/caustics at 32x32, radii whose median pixel counted 35-80 photons gave the
+/// lowest error at equal time, those with 2-20 up to three times the RMSE.
+pub const DEFAULT_MEDIAN_PHOTONS: f32 = 50.0;
+/// Without `--sppm-radius`, the most the initial radius grows past the provisional one
+/// (photons too few to fill it).
+pub const MAX_DEFAULT_GROWTH: f32 = 2.0;
 /// Photons a work unit (dealt to threads and ranks).
 const BLOCK: u64 = 256;
 /// Most photons an iteration (photon streams are keyed by `iteration << 40 | photon`).
@@ -73,8 +88,9 @@ pub const BYTES_PER_PIXEL: u64 = 324;
 /// The photon-mapping settings of a render (`sppm`, `ppm`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PhotonSettings {
-    /// Initial gather radius, metres; `None`: [`DEFAULT_RADIUS_FRACTION`] of the diagonal of
-    /// the visible points' bounding box.
+    /// Initial gather radius, metres (an upper bound the pilot pass may shrink); `None`: from
+    /// the pilot's counts, [`DEFAULT_MEDIAN_PHOTONS`] for the median pixel, starting from
+    /// [`DEFAULT_RADIUS_FRACTION`] of the diagonal of the visible points' bounding box.
     pub initial_radius_m: Option<f32>,
     /// Photons traced an iteration; `None`: one a pixel (pbrt-v4's default).
     pub photons_per_iteration: Option<u64>,
@@ -311,6 +327,86 @@ fn trace_photon(
     }
 }
 
+/// One photon pass: what it needs to trace and deposit.
+struct PhotonPass<'a> {
+    scene: &'a RenderScene<'a>,
+    grid: &'a PhotonGrid,
+    points: &'a [Option<VisiblePoint>],
+    settings: &'a RenderSettings,
+    photons: u64,
+    unit: f64,
+}
+
+impl PhotonPass<'_> {
+    /// Traces this rank's blocks of `iteration`'s photons from streams of `domain` and returns
+    /// every pixel's `Phi` (fixed point) and `M`, summed over the ranks, and the rays traced.
+    fn run(&self, cluster: &Cluster, domain: u64, iteration: u32) -> (Vec<u128>, Vec<u64>, u64) {
+        let tally = Tally::new(self.points.len(), self.unit);
+        let mine: Vec<u64> = cluster.share().units(self.photons.div_ceil(BLOCK)).collect();
+        let s = self.settings;
+        let rays: u64 = mine
+            .par_iter()
+            .map(|&block| {
+                let mut r = 0;
+                for j in block * BLOCK..((block + 1) * BLOCK).min(self.photons) {
+                    let mut rng = stream(s.seed, domain, (u64::from(iteration) << 40) | j);
+                    trace_photon(self.scene, self.grid, self.points, s.max_depth, &mut rng, &tally, &mut r);
+                }
+                r
+            })
+            .sum();
+        let (mut phi, mut m) = tally.into_sums();
+        cluster.sum_u128_everywhere(&mut phi);
+        cluster.sum_u64_everywhere(&mut m);
+        (phi, m, rays)
+    }
+}
+
+/// Sets the initial radii from the pilot's counts `m0`, gathered within the radii `state`
+/// holds. A pixel counting more than the target (below) has its `r^2` scaled by
+/// target / count, so that it expects the target count an iteration at the density it
+/// measured, as a k-nearest-neighbour photon map chooses its radius (Jensen 2001), but only
+/// ever shrinking. The target is the median count `m_med` over the pixels that counted any
+/// when the radius was given (`scale_all` false); by default (`scale_all`) every pixel is
+/// first scaled so that the median one expects [`DEFAULT_MEDIAN_PHOTONS`] (growing at most
+/// [`MAX_DEFAULT_GROWTH`] times), and the target is that count.
+///
+/// Why: about a visible point of photon density `rho`, over a disc of radius `r`, the density
+/// estimate's variance goes as `rho / r^2` and its squared bias as `(r^2 rho / w^2)^2`, where
+/// `w` is the width over which the light changes; the mean squared error is least at
+/// `r^6 ~ w^4 / rho` (the trade Kaplanyan and Dachsbacher 2013 solve per pixel). Where the
+/// density is high because light is focused (a caustic), the same flux on a spot of width `w`
+/// makes `rho ~ 1 / w^2`, so the best radius goes as `rho^(-1/2)`: the scaling here. Without
+/// it the bright parts of the image keep the blur of the initial radius (SPPM's radius falls
+/// at the same rate everywhere, whatever the density) while the dim parts would want a larger
+/// one. Pixels sparser than the target keep the radius, so it stays an upper bound.
+fn pilot_radii(state: &mut [PixelState], m0: &[u64], scale_all: bool) {
+    // (A pixel without a visible point counts none.)
+    let mut counted: Vec<u64> = m0.iter().copied().filter(|&m| m > 0).collect();
+    let m_med = if counted.is_empty() {
+        0.0
+    } else {
+        counted.sort_unstable();
+        counted[counted.len() / 2] as f32
+    };
+    // The factor on every pixel's r^2 (by default: for the median pixel to expect the
+    // default count, growing at most MAX_DEFAULT_GROWTH times), so the counts expected at the
+    // new radii are `m s2`.
+    let s2 = match (scale_all, m_med > 0.0) {
+        (false, _) => 1.0,
+        (true, true) => (DEFAULT_MEDIAN_PHOTONS / m_med).min(MAX_DEFAULT_GROWTH * MAX_DEFAULT_GROWTH),
+        (true, false) => MAX_DEFAULT_GROWTH * MAX_DEFAULT_GROWTH,
+    };
+    let target = m_med * s2;
+    for (p, &m) in state.iter_mut().zip(m0) {
+        p.radius *= s2.sqrt();
+        let expected = m as f32 * s2;
+        if target > 0.0 && expected > target {
+            p.radius *= (target / expected).sqrt();
+        }
+    }
+}
+
 /// Renders with `sppm` (or `ppm`, whose visible points stay put) on this process's share of
 /// `cluster`; rank 0 returns the image. `spp` iterations of the configured photon count.
 pub fn render_on(
@@ -321,7 +417,6 @@ pub fn render_on(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Option<RenderOutput> {
     let start = Instant::now();
-    let share = cluster.share();
     let (w, h) = (settings.width, settings.height);
     let pixels = w as usize * h as usize;
     let iterations = settings.spp;
@@ -354,6 +449,7 @@ pub fn render_on(
             rays += camera_out.iter().map(|c| c.2).sum::<u64>();
         }
         if it == 0 {
+            // By default a provisional radius the pilot then scales (`pilot_radii`).
             let r0 = settings.photons.initial_radius_m.unwrap_or_else(|| default_radius(&camera_out));
             state.iter_mut().for_each(|p| p.radius = r0);
         }
@@ -363,31 +459,27 @@ pub fn render_on(
         }
         drop(camera_out);
         // 2. Grid.
-        let gridded: Vec<(u32, Vec3, f32)> = points
-            .iter()
-            .enumerate()
-            .filter_map(|(i, vp)| vp.map(|v| (i as u32, v.p, state[i].radius)))
-            .collect();
-        let grid = PhotonGrid::build(&gridded);
-        drop(gridded);
+        let grid_of = |state: &[PixelState]| {
+            let gridded: Vec<(u32, Vec3, f32)> = points
+                .iter()
+                .enumerate()
+                .filter_map(|(i, vp)| vp.map(|v| (i as u32, v.p, state[i].radius)))
+                .collect();
+            PhotonGrid::build(&gridded)
+        };
+        let mut grid = grid_of(&state);
+        if it == 0 {
+            // The pilot: its counts shrink the radius where photons crowd (see `pilot_radii`).
+            let pass = PhotonPass { scene, grid: &grid, points: &points, settings, photons, unit };
+            let (_, m0, r) = pass.run(cluster, PILOT_DOMAIN, 0);
+            rays += r;
+            pilot_radii(&mut state, &m0, settings.photons.initial_radius_m.is_none());
+            grid = grid_of(&state);
+        }
         // 3. Photon pass over this rank's blocks.
-        let tally = Tally::new(pixels, unit);
-        let mine: Vec<u64> = share.units(photons.div_ceil(BLOCK)).collect();
-        let photon_rays: u64 = mine
-            .par_iter()
-            .map(|&block| {
-                let mut r = 0;
-                for j in block * BLOCK..((block + 1) * BLOCK).min(photons) {
-                    let mut rng = stream(settings.seed, PHOTON_DOMAIN, (u64::from(it) << 40) | j);
-                    trace_photon(scene, &grid, &points, settings.max_depth, &mut rng, &tally, &mut r);
-                }
-                r
-            })
-            .sum();
-        rays += photon_rays;
-        let (mut phi, mut m) = tally.into_sums();
-        cluster.sum_u128_everywhere(&mut phi);
-        cluster.sum_u64_everywhere(&mut m);
+        let pass = PhotonPass { scene, grid: &grid, points: &points, settings, photons, unit };
+        let (phi, m, r) = pass.run(cluster, PHOTON_DOMAIN, it);
+        rays += r;
         // 4. Update.
         state.par_iter_mut().zip(points.par_iter()).enumerate().for_each(|(i, (p, vp))| {
             let (Some(vp), mi) = (vp, m[i]) else { return };
@@ -436,4 +528,56 @@ fn default_radius(camera_out: &[(Vec3, Option<VisiblePoint>, u64)]) -> f32 {
         .fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
     let d = (hi - lo).length();
     if d.is_finite() && d > 0.0 { DEFAULT_RADIUS_FRACTION * d } else { 1e-3 }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The pilot leaves the pixels at or under the median count (of those that counted any)
+    /// alone and scales the others' `r^2` by median / count, so each expects the median count
+    /// at the density it measured.
+    #[test]
+    fn pilot_shrinks_only_the_crowded_pixels_to_the_median_count() {
+        let m0 = [0, 4, 8, 16, 32, 400];
+        let mut state = vec![PixelState { ld: Vec3::ZERO, radius: 0.1, n: 0.0, tau: Vec3::ZERO }; m0.len()];
+        pilot_radii(&mut state, &m0, false);
+        // Counted: 4, 8, 16, 32, 400; the median is 16.
+        for (p, &m) in state.iter().zip(&m0) {
+            let expected_r2 = if m > 16 { 0.01 * 16.0 / m as f32 } else { 0.01 };
+            assert!((p.radius * p.radius / expected_r2 - 1.0).abs() < 1e-5, "{m}: {}", p.radius);
+            // The photons expected within the new radius, at the measured density.
+            let expected = m as f32 * p.radius * p.radius / 0.01;
+            assert!(expected <= 16.0 * (1.0 + 1e-5), "{m}: {expected}");
+        }
+        let mut none = state.clone();
+        pilot_radii(&mut none, &[0; 6], false);
+        assert!(none.iter().zip(&state).all(|(a, b)| a.radius == b.radius));
+    }
+
+    /// Without a radius given, every pixel is scaled so that the median one expects
+    /// DEFAULT_MEDIAN_PHOTONS, then the crowded ones shrink to that count; with too few
+    /// photons the radius grows by MAX_DEFAULT_GROWTH at most.
+    #[test]
+    fn default_radius_makes_the_median_pixel_expect_the_default_count() {
+        let m0 = [0, 5, 10, 20];
+        let mut state = vec![PixelState { ld: Vec3::ZERO, radius: 0.1, n: 0.0, tau: Vec3::ZERO }; m0.len()];
+        pilot_radii(&mut state, &m0, true);
+        // The median count is 10 (of 5, 10, 20): r^2 would scale by 50 / 10 = 5, capped
+        // at 2^2 = 4, so the median pixel expects 40, the target.
+        let (s2, target) = (4.0f32, 40.0f32);
+        for (p, &m) in state.iter().zip(&m0) {
+            let expected = m as f32 * s2;
+            let r2 = 0.01 * s2 * if expected > target { target / expected } else { 1.0 };
+            assert!((p.radius * p.radius / r2 - 1.0).abs() < 1e-5, "{m}: {}", p.radius);
+        }
+        // Plenty of photons: the median (100) is brought down to 50.
+        let m0 = [100, 100, 400];
+        let mut state = vec![PixelState { ld: Vec3::ZERO, radius: 0.1, n: 0.0, tau: Vec3::ZERO }; m0.len()];
+        pilot_radii(&mut state, &m0, true);
+        for (p, &m) in state.iter().zip(&m0) {
+            let expected_count = m as f32 * p.radius * p.radius / 0.01;
+            assert!((expected_count - DEFAULT_MEDIAN_PHOTONS).abs() < 1e-3, "{m}: {expected_count}");
+        }
+    }
 }
