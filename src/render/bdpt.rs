@@ -21,6 +21,7 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::bsdf::BsdfSample;
 use super::light::importance_weight;
 use super::sampler::Uniforms;
 use super::splat::{SplatFilm, finish};
@@ -248,8 +249,11 @@ pub(super) fn random_walk<R: Uniforms>(
 const RR_START_VERTEX: usize = 3;
 
 /// Camera rays a split pixel spends, per sample, on the light it sees by way of mirrors and
-/// glass alone ([`specular_emission`]).
-pub(super) const SPECULAR_SPLIT: u32 = 8;
+/// glass alone ([`specular_emission`]): one in each cell of a 2 x 2 grid over the pixel.
+pub(super) const SPECULAR_SPLIT: u32 = 4;
+/// Dirac bounces at which [`specular_emission`] follows both the reflected and the refracted
+/// ray (each weighted by its Fresnel factor) rather than choosing one; deeper, it chooses.
+const BRANCH_BOUNCES: u32 = 3;
 
 /// Whether pixel `(x, y)` shows a Dirac surface (mirror, glass) or an emitter at any of 3 x 3
 /// fixed points in it, through the lens centre: such pixels are split ([`specular_emission`]).
@@ -265,11 +269,14 @@ pub(super) fn splits_pixel(scene: &RenderScene, camera: &Camera, s: &RenderSetti
 }
 
 /// The light pixel `(x, y)` sees directly or by way of Dirac bounces only (eye paths
-/// `E S..S L`), averaged over `n` camera rays. Only the camera can sample these paths (no
-/// join or merge ends at a Dirac vertex), so a split pixel takes them `n` times a sample at
-/// the cost of a few rays each, rather than once at the cost of a whole bidirectional sample,
-/// and leaves them out of the joins ([`connect_all`]): the pixel's estimate is the sum of the
-/// two, unbiased.
+/// `E S..S L`), averaged over [`SPECULAR_SPLIT`] camera rays stratified over the pixel, each
+/// followed down both the reflected and the refracted branch of its first
+/// [`BRANCH_BOUNCES`] glass hits (Whitted's tree, weighted by Fresnel rather than sampled).
+/// Only the camera can sample these paths (no join or merge ends at a Dirac vertex), and a
+/// bulb's highlight on glass is a small spot that a sample reaches only by choosing the
+/// reflection (a few per cent): a split pixel takes these paths here, at the cost of a few
+/// rays, rather than once a sample at the cost of a whole bidirectional sample, and leaves
+/// them out of the joins ([`connect_all`]); the pixel's estimate is the sum, unbiased.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn specular_emission<R: Uniforms>(
     scene: &RenderScene,
@@ -277,38 +284,49 @@ pub(super) fn specular_emission<R: Uniforms>(
     s: &RenderSettings,
     x: u32,
     y: u32,
-    n: u32,
     rng: &mut R,
     rays: &mut u64,
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
-    for _ in 0..n {
-        let o = rng.next_2d();
+    // Pending rays: (ray, throughput, Dirac bounces before it). A branch adds at most one.
+    let mut stack: Vec<(Ray, Vec3, u32)> = Vec::with_capacity(2 * BRANCH_BOUNCES as usize + 2);
+    for k in 0..SPECULAR_SPLIT {
+        let cell = Vec2::new((k % 2) as f32, (k / 2) as f32);
+        let o = (cell + rng.next_2d()) * 0.5;
         let lens = if camera.aperture_radius_m > 0.0 { rng.next_2d() } else { Vec2::ZERO };
         let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-        let mut ray = camera.ray(fp, lens);
-        let mut beta = Vec3::ONE;
-        for bounce in 0..=s.max_depth {
+        stack.push((camera.ray(fp, lens), Vec3::ONE, 0));
+        while let Some((ray, beta, bounce)) = stack.pop() {
             *rays += 1;
-            let Some(hit) = scene.intersect(&ray) else { break };
+            let Some(hit) = scene.intersect(&ray) else { continue };
             if let Some(l) = scene.light_of(&hit) {
                 sum += beta * scene.lights.lights[l].le_towards(hit.normal, -ray.dir);
             }
             let bsdf = scene.surfaces[hit.surface as usize].bsdf;
             if !bsdf.is_delta() || bounce == s.max_depth {
-                break;
+                continue;
             }
             let frame = Frame::new(hit.normal);
+            let wo = frame.to_local(-ray.dir);
             let (u, uc) = (rng.next_2d(), rng.next_1d());
-            let Some(bs) = bsdf.sample(frame.to_local(-ray.dir), u, uc) else { break };
-            beta *= bs.weight();
-            if beta == Vec3::ZERO {
-                break;
+            let mut follow = |bs: BsdfSample, beta: Vec3| {
+                if beta != Vec3::ZERO && beta.is_finite() {
+                    stack.push((Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi)), beta, bounce + 1));
+                }
+            };
+            if bounce < BRANCH_BOUNCES {
+                // Both lobes, each with its share: the reflection (uc = 0) and the refraction.
+                let reflected = bsdf.sample(wo, u, 0.0);
+                let refracted = bsdf.sample(wo, u, 1.0).filter(|r| reflected.is_none_or(|f| f.wi != r.wi));
+                for bs in [reflected, refracted].into_iter().flatten() {
+                    follow(bs, beta * bs.weight() * bs.pdf);
+                }
+            } else if let Some(bs) = bsdf.sample(wo, u, uc) {
+                follow(bs, beta * bs.weight());
             }
-            ray = Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi));
         }
     }
-    sum / n as f32
+    sum / SPECULAR_SPLIT as f32
 }
 
 /// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
@@ -555,7 +573,7 @@ fn sample(
     light_subpath(scene, s.max_depth, rng, light, rays);
     l += connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, split, rng, film, rays);
     if split {
-        l += specular_emission(scene, camera_model, s, x, y, SPECULAR_SPLIT, rng, rays);
+        l += specular_emission(scene, camera_model, s, x, y, rng, rays);
     }
     l
 }

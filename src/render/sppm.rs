@@ -45,6 +45,7 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
+use super::bdpt::{specular_emission, splits_pixel};
 use super::light::importance_weight;
 use super::path::{RR_START_DEPTH, Vertex, emitted, sample_direct};
 use super::photon_grid::PhotonGrid;
@@ -58,6 +59,8 @@ use crate::dist::Cluster;
 pub const CAMERA_DOMAIN: u64 = 0x5350_4341; // "SPCA"
 /// Random-stream domain of the visible points' light samples.
 pub const DIRECT_DOMAIN: u64 = 0x5350_4e45; // "SPNE"
+/// Random-stream domain of the split pixels' camera rays through mirrors and glass.
+pub const SPLIT_DOMAIN: u64 = 0x5350_5350; // "SPSP"
 /// Random-stream domain of the photons.
 pub const PHOTON_DOMAIN: u64 = 0x5048_4f54; // "PHOT"
 /// Random-stream domain of the pilot photons (the initial radii, [`pilot_radii`]).
@@ -147,7 +150,10 @@ struct PixelState {
 
 /// One camera path of pixel `(x, y)` in `iteration`: its direct light and visible point. With
 /// `fixed_path` (PPM) the path's numbers come from iteration 0 every time, so the visible
-/// point does not move; the light samples stay fresh.
+/// point does not move; the light samples stay fresh. In a `split` pixel the emitters seen
+/// by way of Dirac bounces alone are left out: [`super::bdpt::specular_emission`] takes them,
+/// [`super::bdpt::SPECULAR_SPLIT`] camera rays an iteration.
+#[allow(clippy::too_many_arguments)]
 pub fn camera_path(
     scene: &RenderScene,
     camera: &Camera,
@@ -155,6 +161,7 @@ pub fn camera_path(
     (x, y): (u32, u32),
     iteration: u32,
     fixed_path: bool,
+    split: bool,
     rays: &mut u64,
 ) -> (Vec3, Option<VisiblePoint>) {
     let pixels = u64::from(s.width) * u64::from(s.height);
@@ -176,7 +183,9 @@ pub fn camera_path(
             return (ld, None);
         };
         // Only Dirac vertices came before: emitters seen are taken in full.
-        ld += beta * scene.emitted(&hit);
+        if !split {
+            ld += beta * scene.emitted(&hit);
+        }
         if depth >= s.max_depth {
             return (ld, None);
         }
@@ -426,6 +435,11 @@ pub fn render_on(
     let mut state: Vec<PixelState> =
         vec![PixelState { ld: Vec3::ZERO, radius: 0.0, n: 0.0, tau: Vec3::ZERO }; pixels];
     let mut rays = 0u64;
+    // Which pixels take the light seen through mirrors and glass by extra camera rays.
+    let split: Vec<bool> = (0..pixels)
+        .into_par_iter()
+        .map(|i| splits_pixel(scene, camera, settings, i as u32 % w, i as u32 / w))
+        .collect();
     for it in 0..iterations {
         // 1. Camera pass: every rank traces every pixel (only the root counts the rays).
         let camera_out: Vec<(Vec3, Option<VisiblePoint>, u64)> = (0..pixels)
@@ -433,15 +447,14 @@ pub fn render_on(
             .with_min_len(64)
             .map(|i| {
                 let mut r = 0;
-                let (ld, vp) = camera_path(
-                    scene,
-                    camera,
-                    settings,
-                    (i as u32 % w, i as u32 / w),
-                    it,
-                    fixed_path,
-                    &mut r,
-                );
+                let (x, y) = (i as u32 % w, i as u32 / w);
+                let (mut ld, vp) =
+                    camera_path(scene, camera, settings, (x, y), it, fixed_path, split[i], &mut r);
+                if split[i] {
+                    let mut rng =
+                        stream(settings.seed, SPLIT_DOMAIN, u64::from(it) * pixels as u64 + i as u64);
+                    ld += specular_emission(scene, camera, settings, x, y, &mut rng, &mut r);
+                }
                 (ld, vp, r)
             })
             .collect();

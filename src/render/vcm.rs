@@ -33,8 +33,8 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bdpt::{
-    SPECULAR_SPLIT, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
-    specular_emission, splits_pixel,
+    Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight, specular_emission,
+    splits_pixel,
 };
 use super::point_grid::PointGrid;
 use super::splat::{SplatFilm, finish};
@@ -223,7 +223,7 @@ fn sample(
         l += z.beta * merged * iteration.norm;
     }
     if split {
-        l += specular_emission(scene, camera_model, s, x, y, SPECULAR_SPLIT, rng, rays);
+        l += specular_emission(scene, camera_model, s, x, y, rng, rays);
     }
     l
 }
