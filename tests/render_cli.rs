@@ -162,6 +162,10 @@ fn bad_inputs_give_one_line_errors() {
         &["--sppm-radius 0", "positive"],
     );
     assert_clean_error(&with(&["--integrator", "sppm", "--sppm-radius", "-1"]), &["--sppm-radius -1"]);
+    assert_clean_error(
+        &with(&["--integrator", "vcm", "--sppm-radius", "1e30"]),
+        &["--sppm-radius", "at most"],
+    );
     assert_clean_error(&with(&["--integrator", "ppm", "--photons", "0"]), &["--photons 0"]);
     assert_clean_error(&with(&["--integrator", "sppm", "--iterations", "0"]), &["--iterations 0"]);
     assert_clean_error(&with(&["--photons", "100"]), &["--photons", "sppm"]);

@@ -79,6 +79,9 @@ pub const DEFAULT_MEDIAN_PHOTONS: f32 = 50.0;
 /// Without `--sppm-radius`, the most the initial radius grows past the provisional one
 /// (photons too few to fill it).
 pub const MAX_DEFAULT_GROWTH: f32 = 2.0;
+/// The largest initial radius accepted, metres (1,000 km): beyond any scene, and small enough
+/// that `N pi r^2` stays finite in single precision.
+pub const MAX_RADIUS_M: f32 = 1.0e6;
 /// Photons a work unit (dealt to threads and ranks).
 const BLOCK: u64 = 256;
 /// Most photons an iteration (photon streams are keyed by `iteration << 40 | photon`).
@@ -103,9 +106,11 @@ impl PhotonSettings {
     /// Checks the numbers; the error is one line naming the option.
     pub fn validate(&self) -> Result<(), String> {
         if let Some(r) = self.initial_radius_m
-            && !(r.is_finite() && r > 0.0)
+            && !(r.is_finite() && r > 0.0 && r <= MAX_RADIUS_M)
         {
-            return Err(format!("--sppm-radius {r}: must be a positive distance in metres"));
+            return Err(format!(
+                "--sppm-radius {r}: must be a positive distance in metres, at most {MAX_RADIUS_M}"
+            ));
         }
         if let Some(n) = self.photons_per_iteration
             && !(1..=MAX_PHOTONS_PER_ITERATION).contains(&n)
