@@ -288,15 +288,19 @@ pub(super) fn specular_emission<R: Uniforms>(
     rays: &mut u64,
 ) -> Vec3 {
     let mut sum = Vec3::ZERO;
-    // Pending rays: (ray, throughput, Dirac bounces before it). A branch adds at most one.
-    let mut stack: Vec<(Ray, Vec3, u32)> = Vec::with_capacity(2 * BRANCH_BOUNCES as usize + 2);
+    // Pending rays: (ray, throughput, Dirac bounces before it), depth first. Each branching
+    // bounce adds at most one to the stack, so it never holds more than BRANCH_BOUNCES + 1.
+    let mut stack = [(Ray::new(Vec3::ZERO, Vec3::Z), Vec3::ZERO, 0u32); BRANCH_BOUNCES as usize + 1];
     for k in 0..SPECULAR_SPLIT {
         let cell = Vec2::new((k % 2) as f32, (k / 2) as f32);
         let o = (cell + rng.next_2d()) * 0.5;
         let lens = if camera.aperture_radius_m > 0.0 { rng.next_2d() } else { Vec2::ZERO };
         let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
-        stack.push((camera.ray(fp, lens), Vec3::ONE, 0));
-        while let Some((ray, beta, bounce)) = stack.pop() {
+        stack[0] = (camera.ray(fp, lens), Vec3::ONE, 0);
+        let mut len = 1;
+        while len > 0 {
+            len -= 1;
+            let (ray, beta, bounce) = stack[len];
             *rays += 1;
             let Some(hit) = scene.intersect(&ray) else { continue };
             if let Some(l) = scene.light_of(&hit) {
@@ -310,8 +314,9 @@ pub(super) fn specular_emission<R: Uniforms>(
             let wo = frame.to_local(-ray.dir);
             let (u, uc) = (rng.next_2d(), rng.next_1d());
             let mut follow = |bs: BsdfSample, beta: Vec3| {
-                if beta != Vec3::ZERO && beta.is_finite() {
-                    stack.push((Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi)), beta, bounce + 1));
+                if beta != Vec3::ZERO && beta.is_finite() && len < stack.len() {
+                    stack[len] = (Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi)), beta, bounce + 1);
+                    len += 1;
                 }
             };
             if bounce < BRANCH_BOUNCES {
@@ -753,11 +758,7 @@ pub fn render_on(
     let start = Instant::now();
     let share = cluster.share();
     let (w, h) = (settings.width, settings.height);
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let mine: Vec<(u32, u32)> =
-        tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let mine = super::owned_tiles(&share, w, h);
     let min_len = (mine.len() / (8 * rayon::current_num_threads())).max(1);
     type Acc = (Vec<((u32, u32), Vec<Vec3>)>, SplatFilm, u64);
     let (done, splats, rays): Acc = mine
@@ -806,10 +807,8 @@ pub fn render_on(
         );
     let mut film = Film::new(w, h);
     for ((x0, y0), px) in done {
-        let tw = (x0 + TILE).min(w) - x0;
-        for (k, p) in px.into_iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-            film.pixels[(y * w + x) as usize] = p;
+        for (i, p) in super::tile_pixels(x0, y0, w, h).zip(px) {
+            film.pixels[i] = p;
         }
     }
     finish(cluster, film, splats, settings.spp, rays, start)

@@ -84,6 +84,24 @@ pub const MAX_DEPTH: u32 = 1024;
 /// Tile side in pixels: the unit of parallel work.
 pub const TILE: u32 = 16;
 
+/// The tiles (top-left corners) of a `width` x `height` image that `share` renders: tiles
+/// numbered row-major and dealt round-robin over the processes.
+pub(crate) fn owned_tiles(share: &crate::core::Share, width: u32, height: u32) -> Vec<(u32, u32)> {
+    (0..height.div_ceil(TILE))
+        .flat_map(|ty| (0..width.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
+        .enumerate()
+        .filter(|(i, _)| share.owns(*i as u64))
+        .map(|(_, t)| t)
+        .collect()
+}
+
+/// The image indices of the pixels of the tile at `(x0, y0)`, in the order they are rendered
+/// (row-major within the tile).
+pub(crate) fn tile_pixels(x0: u32, y0: u32, width: u32, height: u32) -> impl Iterator<Item = usize> {
+    let (x1, y1) = ((x0 + TILE).min(width), (y0 + TILE).min(height));
+    (y0..y1).flat_map(move |y| (x0..x1).map(move |x| y as usize * width as usize + x as usize))
+}
+
 /// The integrators `--integrator` chooses from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IntegratorKind {
@@ -837,11 +855,7 @@ pub fn render_on(
         _ => None,
     };
     let (w, h) = (settings.width, settings.height);
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let mine: Vec<(u32, u32)> =
-        tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let mine = owned_tiles(&share, w, h);
     // The bounded medium around the eye, if any (volpath and raymarch).
     let camera_medium = match settings.integrator {
         IntegratorKind::Volpath | IntegratorKind::Raymarch => scene.media.enclosing(scene, camera.eye),
@@ -884,10 +898,8 @@ pub fn render_on(
     };
     for (&(x0, y0), (px, r)) in mine.iter().zip(done) {
         rays += r;
-        let tw = (x0 + TILE).min(w) - x0;
-        for (k, p) in px.into_iter().enumerate() {
-            let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-            film.pixels[(y * w + x) as usize] = p;
+        for (i, p) in tile_pixels(x0, y0, w, h).zip(px) {
+            film.pixels[i] = p;
         }
     }
     if cluster.size() > 1 {

@@ -12,8 +12,8 @@ use crate::core::rng::mix64;
 
 /// Bits of each packed cell coordinate (a key holds three).
 const COORD_BITS: u32 = 21;
-/// Largest cell coordinate.
-const MAX_COORD: i32 = (1 << COORD_BITS) - 1;
+/// Largest cell coordinate (also [`super::point_grid`]'s).
+pub(super) const MAX_COORD: i32 = (1 << COORD_BITS) - 1;
 
 /// The grid.
 #[derive(Clone, Debug)]
@@ -151,9 +151,9 @@ struct Entry {
     centre: Vec3,
 }
 
-/// A cell's packed coordinates.
+/// A cell's packed coordinates (also [`super::point_grid`]'s).
 #[inline]
-fn key(c: IVec3) -> u64 {
+pub(super) fn key(c: IVec3) -> u64 {
     c.x as u64 | (c.y as u64) << COORD_BITS | (c.z as u64) << (2 * COORD_BITS)
 }
 

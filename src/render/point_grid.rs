@@ -7,12 +7,8 @@
 
 use glam::{IVec3, Vec3};
 
+use super::photon_grid::{MAX_COORD, key};
 use crate::core::rng::mix64;
-
-/// Bits of each packed cell coordinate (a key holds three).
-const COORD_BITS: u32 = 21;
-/// Largest cell coordinate.
-const MAX_COORD: i32 = (1 << COORD_BITS) - 1;
 
 /// The grid.
 #[derive(Clone, Debug)]
@@ -147,12 +143,6 @@ impl PointGrid {
     fn bucket(&self, key: u64) -> usize {
         (mix64(key) & self.mask) as usize
     }
-}
-
-/// A cell's packed coordinates.
-#[inline]
-fn key(c: IVec3) -> u64 {
-    c.x as u64 | (c.y as u64) << COORD_BITS | (c.z as u64) << (2 * COORD_BITS)
 }
 
 #[cfg(test)]

@@ -27,6 +27,7 @@
 //! exactly ([`super::splat::finish`]), so rank 0's image is the single process's, bit for bit.
 
 use std::f32::consts::PI;
+use std::sync::{Mutex, PoisonError};
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
@@ -38,7 +39,7 @@ use super::bdpt::{
 };
 use super::point_grid::PointGrid;
 use super::splat::{SplatFilm, finish};
-use super::{Camera, Film, RenderOutput, RenderScene, RenderSettings, TILE, u2};
+use super::{Camera, Film, RenderOutput, RenderScene, RenderSettings, u2};
 use crate::core::rng::{Rng64, stream};
 use crate::dist::Cluster;
 
@@ -242,11 +243,7 @@ pub fn render_on(
     let (w, h) = (settings.width, settings.height);
     let pixels = w as usize * h as usize;
     let n = light_paths_per_iteration(settings);
-    let tiles: Vec<(u32, u32)> = (0..h.div_ceil(TILE))
-        .flat_map(|ty| (0..w.div_ceil(TILE)).map(move |tx| (tx * TILE, ty * TILE)))
-        .collect();
-    let mine: Vec<(u32, u32)> =
-        tiles.iter().enumerate().filter(|(i, _)| share.owns(*i as u64)).map(|(_, &t)| t).collect();
+    let mine = super::owned_tiles(&share, w, h);
     let min_len = (mine.len() / (8 * rayon::current_num_threads())).max(1);
     let mut sums = vec![Vec3::ZERO; pixels];
     // Which pixels split off the light seen through mirrors and glass (a fixed choice).
@@ -254,7 +251,8 @@ pub fn render_on(
         .into_par_iter()
         .map(|i| splits_pixel(scene, camera, settings, i as u32 % w, i as u32 / w))
         .collect();
-    let mut splats = SplatFilm::new(w, h);
+    let films: Vec<Mutex<SplatFilm>> =
+        (0..rayon::current_num_threads().max(1)).map(|_| Mutex::new(SplatFilm::new(w, h))).collect();
     let (mut rays, mut r0) = (0u64, settings.photons.initial_radius_m);
     for it in 0..settings.spp {
         // 1. Light pass: every rank traces every subpath (only the root counts the rays).
@@ -278,53 +276,42 @@ pub fn render_on(
         drop(points);
         let iteration = Iteration { paths: &paths, grid: &grid, eta, norm: 1.0 / eta };
         // 2. Camera pass over this rank's tiles.
-        type Acc = (Vec<((u32, u32), Vec<Vec3>)>, SplatFilm, u64);
-        let (done, film, r): Acc = mine
+        // Each worker thread splats into its own film, kept over the iterations (the sums are
+        // fixed point, so which thread adds a splat does not change the image).
+        let done: Vec<((u32, u32), Vec<Vec3>, u64)> = mine
             .par_iter()
             .with_min_len(min_len)
-            .fold(
-                || (Vec::new(), SplatFilm::new(w, h), 0u64),
-                |(mut done, mut film, mut rays), &(x0, y0)| {
-                    let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
-                    let mut camera_path = Vec::new();
-                    let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
-                    for y in y0..y1 {
-                        for x in x0..x1 {
-                            let pixel = u64::from(y) * u64::from(w) + u64::from(x);
-                            let key = u64::from(it) * pixels as u64 + pixel;
-                            let mut rng = stream(settings.seed, CAMERA_DOMAIN, key);
-                            let l = sample(
-                                scene,
-                                camera,
-                                settings,
-                                (x, y, split[pixel as usize]),
-                                &iteration,
-                                &mut rng,
-                                &mut camera_path,
-                                &mut film,
-                                &mut rays,
-                            );
-                            px.push(if l.is_finite() { l } else { Vec3::ZERO });
-                        }
-                    }
-                    done.push(((x0, y0), px));
-                    (done, film, rays)
-                },
-            )
-            .reduce(
-                || (Vec::new(), SplatFilm::new(w, h), 0),
-                |(mut da, fa, ra), (db, fb, rb)| {
-                    da.extend(db);
-                    (da, fa.merge(&fb), ra + rb)
-                },
-            );
-        rays += r;
-        splats = splats.merge(&film);
-        for ((x0, y0), px) in done {
-            let tw = (x0 + TILE).min(w) - x0;
-            for (k, p) in px.into_iter().enumerate() {
-                let (x, y) = (x0 + k as u32 % tw, y0 + k as u32 / tw);
-                sums[(y * w + x) as usize] += p;
+            .map(|&(x0, y0)| {
+                let slot = rayon::current_thread_index().unwrap_or(0) % films.len();
+                let mut film = films[slot].lock().unwrap_or_else(PoisonError::into_inner);
+                let mut camera_path = Vec::new();
+                let mut rays = 0;
+                let px = super::tile_pixels(x0, y0, w, h)
+                    .map(|i| {
+                        let key = u64::from(it) * pixels as u64 + i as u64;
+                        let mut rng = stream(settings.seed, CAMERA_DOMAIN, key);
+                        let (x, y) = (i as u32 % w, i as u32 / w);
+                        let l = sample(
+                            scene,
+                            camera,
+                            settings,
+                            (x, y, split[i]),
+                            &iteration,
+                            &mut rng,
+                            &mut camera_path,
+                            &mut film,
+                            &mut rays,
+                        );
+                        if l.is_finite() { l } else { Vec3::ZERO }
+                    })
+                    .collect();
+                ((x0, y0), px, rays)
+            })
+            .collect();
+        for ((x0, y0), px, r) in done {
+            rays += r;
+            for (i, p) in super::tile_pixels(x0, y0, w, h).zip(px) {
+                sums[i] += p;
             }
         }
         let done = |k: u32| pixels as u64 * u64::from(k) / u64::from(settings.spp);
@@ -335,6 +322,10 @@ pub fn render_on(
     for (p, s) in film.pixels.iter_mut().zip(&sums) {
         *p = *s * inv;
     }
+    let splats = films
+        .into_iter()
+        .map(|f| f.into_inner().unwrap_or_else(PoisonError::into_inner))
+        .fold(SplatFilm::new(w, h), |a, b| a.merge(&b));
     let mut out = finish(cluster, film, splats, settings.spp, rays, start)?;
     out.photons = n * u64::from(settings.spp);
     Some(out)
