@@ -228,7 +228,7 @@ fn splatting_integrators_agree_with_the_path_tracer(scene_name: &str) {
         s.mlt.chains = 256;
         // vcm: merges blur the light over their disc, which a per-pixel test of 24 runs sees
         // where a disc of the default radius (2 cm here) overhangs an edge or a corner (7 of the
-        // Cornell box's 3,072 channels, the worst the floor's front corner 13 % dark at |t|
+        // Cornell box's 3,072 channels, the worst the floor at the image's bottom edge, 13 % dark, at |t|
         // 8.5); a 5 mm disc leaves the bias below the test's reach, and the merges still carry
         // the paths no join makes.
         if integrator == IntegratorKind::Vcm {
