@@ -12,20 +12,14 @@ use crate::core::rng::mix64;
 
 /// Bits of each packed cell coordinate (a key holds three).
 const COORD_BITS: u32 = 21;
-/// Largest cell coordinate (also [`super::point_grid`]'s).
-pub(super) const MAX_COORD: i32 = (1 << COORD_BITS) - 1;
+/// Largest cell coordinate.
+const MAX_COORD: i32 = (1 << COORD_BITS) - 1;
 
 /// The grid.
 #[derive(Clone, Debug)]
 pub struct PhotonGrid {
-    /// Lower corner of the gridded box.
-    lo: Vec3,
-    /// Cells per metre.
-    inv_cell: f32,
-    /// Cells along each axis.
-    res: IVec3,
-    /// Bucket mask (buckets are a power of two).
-    mask: u64,
+    /// The box, cells and buckets.
+    cells: Cells,
     /// Start of each bucket's entries in `entries` (one more than the buckets).
     offsets: Vec<u32>,
     /// The entries, grouped by bucket.
@@ -46,36 +40,25 @@ impl PhotonGrid {
             hi = hi.max(p + r);
             max_r = max_r.max(r);
         }
-        let mut grid = Self {
-            lo: Vec3::ZERO,
-            inv_cell: 0.0,
-            res: IVec3::ZERO,
-            mask: 0,
-            offsets: vec![0; 2],
-            entries: Vec::new(),
-        };
+        let mut grid = Self { cells: Cells::default(), offsets: vec![0; 2], entries: Vec::new() };
         if points.is_empty() {
             return grid;
         }
-        // Cells as wide as the largest radius, but never more than MAX_COORD a side.
-        let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
-        let cell = max_r.max(extent / (MAX_COORD - 1) as f32);
-        grid.lo = lo;
-        grid.inv_cell = 1.0 / cell;
-        grid.res = ((hi - lo) * grid.inv_cell).as_ivec3().clamp(IVec3::ZERO, IVec3::splat(MAX_COORD)) + 1;
+        // Cells as wide as the largest radius.
+        grid.cells = Cells::new(lo, hi, max_r);
         let ranges: Vec<(Entry, IVec3, IVec3)> = points
             .iter()
             .map(|&&(id, p, r)| {
                 let e = Entry { key: 0, id, radius2: r * r, centre: p };
-                (e, grid.cell_of_clamped(p - r), grid.cell_of_clamped(p + r))
+                (e, grid.cells.cell_of_clamped(p - r), grid.cells.cell_of_clamped(p + r))
             })
             .collect();
         let cells: usize = ranges.iter().map(|(_, a, b)| ((*b - *a) + 1).element_product() as usize).sum();
         // About one cell's entries a bucket.
         let buckets = cells.max(1).next_power_of_two();
-        grid.mask = buckets as u64 - 1;
+        grid.cells.mask = buckets as u64 - 1;
         grid.offsets = vec![0; buckets + 1];
-        let mask = grid.mask;
+        let mask = grid.cells.mask;
         let bucket = |k: u64| (mix64(k) & mask) as usize;
         let mut counts = vec![0u32; buckets];
         for &(_, a, b) in &ranges {
@@ -104,16 +87,16 @@ impl PhotonGrid {
     /// Calls `f` with the id of every point within its radius of `p` (distance <= radius).
     #[inline]
     pub fn for_each_within(&self, p: Vec3, mut f: impl FnMut(u32)) {
-        let c = ((p - self.lo) * self.inv_cell).floor();
+        let c = ((p - self.cells.lo) * self.cells.inv_cell).floor();
         if !c.is_finite() || c.min_element() < 0.0 {
             return;
         }
         let c = c.as_ivec3();
-        if c.cmpge(self.res).any() {
+        if c.cmpge(self.cells.res).any() {
             return;
         }
         let k = key(c);
-        let b = self.bucket(k);
+        let b = self.cells.bucket(k);
         for e in &self.entries[self.offsets[b] as usize..self.offsets[b + 1] as usize] {
             if e.key == k && e.centre.distance_squared(p) <= e.radius2 {
                 f(e.id);
@@ -130,13 +113,40 @@ impl PhotonGrid {
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
     }
+}
 
-    fn cell_of_clamped(&self, p: Vec3) -> IVec3 {
+/// The geometry of a hashed uniform grid (this one, and [`super::point_grid::PointGrid`]):
+/// its box, its cells and its buckets.
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct Cells {
+    /// Lower corner of the gridded box.
+    pub lo: Vec3,
+    /// Cells per metre.
+    pub inv_cell: f32,
+    /// Cells along each axis.
+    pub res: IVec3,
+    /// Bucket mask (buckets are a power of two).
+    pub mask: u64,
+}
+
+impl Cells {
+    /// Cells `cell` metres wide over the box `lo..hi`, but never more than [`MAX_COORD`] a
+    /// side; no buckets yet.
+    pub fn new(lo: Vec3, hi: Vec3, cell: f32) -> Self {
+        let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
+        let inv_cell = 1.0 / cell.max(extent / (MAX_COORD - 1) as f32);
+        let res = ((hi - lo) * inv_cell).as_ivec3().clamp(IVec3::ZERO, IVec3::splat(MAX_COORD)) + 1;
+        Self { lo, inv_cell, res, mask: 0 }
+    }
+
+    /// The cell holding `p`, clamped to the grid.
+    pub fn cell_of_clamped(&self, p: Vec3) -> IVec3 {
         ((p - self.lo) * self.inv_cell).floor().as_ivec3().clamp(IVec3::ZERO, self.res - 1)
     }
 
+    /// The bucket of a cell's key.
     #[inline]
-    fn bucket(&self, key: u64) -> usize {
+    pub fn bucket(&self, key: u64) -> usize {
         (mix64(key) & self.mask) as usize
     }
 }

@@ -7,24 +7,17 @@
 
 use glam::{IVec3, Vec3};
 
-use super::photon_grid::{MAX_COORD, key};
-use crate::core::rng::mix64;
+use super::photon_grid::{Cells, key};
 
 /// The grid.
 #[derive(Clone, Debug)]
 pub struct PointGrid {
-    /// Lower corner of the gridded box.
-    lo: Vec3,
-    /// Cells per metre.
-    inv_cell: f32,
-    /// Cells along each axis.
-    res: IVec3,
+    /// The box, cells and buckets.
+    cells: Cells,
     /// The search radius squared, m^2.
     radius2: f32,
     /// The search radius, metres.
     radius: f32,
-    /// Bucket mask (buckets are a power of two).
-    mask: u64,
     /// Start of each bucket's entries in `entries` (one more than the buckets).
     offsets: Vec<u32>,
     /// The entries, grouped by bucket, in the order of their ids within a bucket.
@@ -44,12 +37,9 @@ impl PointGrid {
     /// finite are left out; a radius that is not positive and finite finds nothing.
     pub fn build(points: &[(u32, Vec3)], radius_m: f32) -> Self {
         let mut grid = Self {
-            lo: Vec3::ZERO,
-            inv_cell: 0.0,
-            res: IVec3::ZERO,
+            cells: Cells::default(),
             radius2: 0.0,
             radius: 0.0,
-            mask: 0,
             offsets: vec![0; 2],
             entries: Vec::new(),
         };
@@ -63,23 +53,19 @@ impl PointGrid {
         if !(lo.is_finite() && hi.is_finite()) {
             return grid;
         }
-        let extent = (hi - lo).max_element().max(f32::MIN_POSITIVE);
-        let cell = (2.0 * radius_m).max(extent / (MAX_COORD - 1) as f32);
-        grid.lo = lo;
-        grid.inv_cell = 1.0 / cell;
-        grid.res = ((hi - lo) * grid.inv_cell).as_ivec3().clamp(IVec3::ZERO, IVec3::splat(MAX_COORD)) + 1;
+        grid.cells = Cells::new(lo, hi, 2.0 * radius_m);
         grid.radius = radius_m;
         grid.radius2 = radius_m * radius_m;
         let keyed: Vec<Entry> = points
             .iter()
             .filter(|(_, p)| p.is_finite())
-            .map(|&(id, p)| Entry { key: key(grid.cell_of_clamped(p)), id, p })
+            .map(|&(id, p)| Entry { key: key(grid.cells.cell_of_clamped(p)), id, p })
             .collect();
         let buckets = keyed.len().max(1).next_power_of_two();
-        grid.mask = buckets as u64 - 1;
+        grid.cells.mask = buckets as u64 - 1;
         let mut counts = vec![0u32; buckets + 1];
         for e in &keyed {
-            counts[grid.bucket(e.key) + 1] += 1;
+            counts[grid.cells.bucket(e.key) + 1] += 1;
         }
         for b in 0..buckets {
             counts[b + 1] += counts[b];
@@ -87,7 +73,7 @@ impl PointGrid {
         let mut fill = counts[..buckets].to_vec();
         let mut entries = vec![Entry::default(); keyed.len()];
         for e in keyed {
-            let slot = &mut fill[grid.bucket(e.key)];
+            let slot = &mut fill[grid.cells.bucket(e.key)];
             entries[*slot as usize] = e;
             *slot += 1;
         }
@@ -103,8 +89,9 @@ impl PointGrid {
         if self.entries.is_empty() || !q.is_finite() {
             return;
         }
-        let a = ((q - self.radius - self.lo) * self.inv_cell).floor().max(Vec3::ZERO);
-        let b = ((q + self.radius - self.lo) * self.inv_cell).floor().min((self.res - 1).as_vec3());
+        let c = &self.cells;
+        let a = ((q - self.radius - c.lo) * c.inv_cell).floor().max(Vec3::ZERO);
+        let b = ((q + self.radius - c.lo) * c.inv_cell).floor().min((c.res - 1).as_vec3());
         if a.cmpgt(b).any() {
             return;
         }
@@ -113,7 +100,7 @@ impl PointGrid {
             for y in a.y..=b.y {
                 for x in a.x..=b.x {
                     let k = key(IVec3::new(x, y, z));
-                    let bucket = self.bucket(k);
+                    let bucket = c.bucket(k);
                     let range = self.offsets[bucket] as usize..self.offsets[bucket + 1] as usize;
                     for e in &self.entries[range] {
                         if e.key == k && e.p.distance_squared(q) <= self.radius2 {
@@ -133,15 +120,6 @@ impl PointGrid {
     /// Whether no point was gridded.
     pub fn is_empty(&self) -> bool {
         self.entries.is_empty()
-    }
-
-    fn cell_of_clamped(&self, p: Vec3) -> IVec3 {
-        ((p - self.lo) * self.inv_cell).floor().as_ivec3().clamp(IVec3::ZERO, self.res - 1)
-    }
-
-    #[inline]
-    fn bucket(&self, key: u64) -> usize {
-        (mix64(key) & self.mask) as usize
     }
 }
 
