@@ -71,8 +71,9 @@ struct LightPaths {
     vertices: Vec<Vertex>,
     /// Where each subpath starts in `vertices` (one more than the subpaths).
     starts: Vec<usize>,
-    /// The subpath of each vertex.
-    path_of: Vec<u32>,
+    /// Where the subpath of each vertex starts in `vertices` (read once a merge candidate:
+    /// one lookup rather than two).
+    start_of: Vec<u32>,
 }
 
 impl LightPaths {
@@ -130,15 +131,15 @@ fn light_pass(scene: &RenderScene, settings: &RenderSettings, it: u32, n: u64, r
     let mut paths = LightPaths {
         vertices: Vec::with_capacity(total),
         starts: Vec::with_capacity(n as usize + 1),
-        path_of: Vec::with_capacity(total),
+        start_of: Vec::with_capacity(total),
     };
     paths.starts.push(0);
     for (v, lengths, r) in traced {
         *rays += r;
         for len in lengths {
-            let j = (paths.starts.len() - 1) as u32;
-            paths.path_of.extend(std::iter::repeat_n(j, len as usize));
-            paths.starts.push(paths.starts[j as usize] + len as usize);
+            let start = paths.starts[paths.starts.len() - 1];
+            paths.start_of.extend(std::iter::repeat_n(start as u32, len as usize));
+            paths.starts.push(start + len as usize);
         }
         paths.vertices.extend(v);
     }
@@ -204,7 +205,7 @@ fn sample(
         let (wo, mut merged) = (z.frame.to_local(z.wo), Vec3::ZERO);
         iteration.grid.for_each_within(z.p, |id| {
             let i = id as usize;
-            let start = paths.starts[paths.path_of[i] as usize];
+            let start = paths.start_of[i] as usize;
             let m = i - start;
             if m + t > max_depth + 2 {
                 return;
