@@ -888,6 +888,26 @@ mod tests {
         if merge { merged(t - 1) / total } else { density(t) / total }
     }
 
+    /// A camera subpath of at most 8 vertices through the centre of pixel `n` of a 16x16
+    /// image, and a light subpath of at most `light_depth` bounces.
+    fn subpaths(
+        scene: &RenderScene,
+        cam: &Camera,
+        n: u32,
+        light_depth: u32,
+        rng: &mut Rng64,
+        (camera, light): (&mut Vec<Vertex>, &mut Vec<Vertex>),
+        rays: &mut u64,
+    ) {
+        let (x, y) = (n % 16, (n / 16) % 16);
+        camera.clear();
+        let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 16.0, (y as f32 + 0.5) / 16.0), Vec2::ZERO);
+        camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
+        let pdf_dir = cam.pdf_we(ray.origin, ray.dir).1;
+        random_walk(scene, ray, Vec3::ONE, pdf_dir, 8, Mode::Radiance, rng, camera, rays);
+        light_subpath(scene, light_depth, rng, light, rays);
+    }
+
     #[test]
     fn mis_weights_match_the_balance_heuristic_from_scratch() {
         join_weights_match_the_balance_heuristic_from_scratch(0.0);
@@ -912,13 +932,7 @@ mod tests {
         let mut rays = 0;
         let mut checked = 0;
         for n in 0..400 {
-            let (x, y) = (n % 16, (n / 16) % 16);
-            camera.clear();
-            let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 16.0, (y as f32 + 0.5) / 16.0), Vec2::ZERO);
-            camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
-            let pdf_dir = cam.pdf_we(ray.origin, ray.dir).1;
-            random_walk(&scene, ray, Vec3::ONE, pdf_dir, 8, Mode::Radiance, &mut rng, &mut camera, &mut rays);
-            light_subpath(&scene, settings.max_depth, &mut rng, &mut light, &mut rays);
+            subpaths(&scene, &cam, n, settings.max_depth, &mut rng, (&mut camera, &mut light), &mut rays);
             for t in 1..=camera.len() {
                 for s in 0..=light.len() {
                     if (s == 1 && t == 1) || s + t < 3 || s + t > 8 {
@@ -1003,13 +1017,7 @@ mod tests {
         let mut rays = 0;
         let (mut checked, mut weight_sum) = (0, 0.0f64);
         for n in 0..400 {
-            let (x, y) = (n % 16, (n / 16) % 16);
-            camera.clear();
-            let ray = cam.ray(Vec2::new((x as f32 + 0.5) / 16.0, (y as f32 + 0.5) / 16.0), Vec2::ZERO);
-            camera.push(Vertex::endpoint(VertexKind::Camera, ray.origin, Vec3::ZERO, Vec3::ONE, None));
-            let pdf_dir = cam.pdf_we(ray.origin, ray.dir).1;
-            random_walk(&scene, ray, Vec3::ONE, pdf_dir, 8, Mode::Radiance, &mut rng, &mut camera, &mut rays);
-            light_subpath(&scene, 6, &mut rng, &mut light, &mut rays);
+            subpaths(&scene, &cam, n, 6, &mut rng, (&mut camera, &mut light), &mut rays);
             for t in 2..=camera.len() {
                 for m in 1..=light.len() {
                     if m + t > 8 || camera[t - 1].bsdf.is_delta() {

@@ -53,16 +53,7 @@ impl DensityGrid {
         bounds_min: Vec3,
         bounds_max: Vec3,
     ) -> Result<Self, String> {
-        let voxels = voxel_count(dims)?;
-        if values.len() != voxels {
-            return Err(format!(
-                "{} densities for a {} x {} x {} grid (expected {voxels})",
-                values.len(),
-                dims[0],
-                dims[1],
-                dims[2]
-            ));
-        }
+        check_count(dims, values.len())?;
         if let Some((i, v)) = values.iter().enumerate().find(|(_, v)| !(v.is_finite() && **v >= 0.0)) {
             return Err(format!("density number {} is {v}: densities must be finite and 0 or more", i + 1));
         }
@@ -281,16 +272,17 @@ pub fn parse_text(text: &str) -> Result<([usize; 3], Vec<f32>), String> {
             w.parse().map_err(|_| format!("density number {} \"{w}\" is not a number", values.len() + 1))?;
         values.push(v);
     }
-    if values.len() != voxels {
-        return Err(format!(
-            "{} densities for a {} x {} x {} grid (expected {voxels})",
-            values.len(),
-            dims[0],
-            dims[1],
-            dims[2]
-        ));
-    }
+    check_count(dims, values.len())?;
     Ok((dims, values))
+}
+
+/// An error unless `found` densities fill a grid of `dims`.
+fn check_count(dims: [usize; 3], found: usize) -> Result<(), String> {
+    let voxels = voxel_count(dims)?;
+    if found == voxels {
+        return Ok(());
+    }
+    Err(format!("{found} densities for a {} x {} x {} grid (expected {voxels})", dims[0], dims[1], dims[2]))
 }
 
 /// The raw format: little-endian f32s, `dims` from the scene file.
