@@ -66,6 +66,14 @@ pub struct Vertex {
     pub pdf_fwd: f32,
     /// Density per area of this vertex if sampled from the other end.
     pub pdf_rev: f32,
+    /// The balance heuristic's sum over the joins that make this vertex and the ones before
+    /// it (back to its subpath's start) the other subpath's, each strategy's density over
+    /// the one whose subpath ends here, once the next vertex has fixed this one's `pdf_rev`
+    /// ([`prefix_sums`]): a join reads it two vertices back from each of its ends, so its
+    /// weight costs the same whatever the subpaths' lengths.
+    pub mis_joins: f32,
+    /// As `mis_joins` for the merges (vertex connection and merging), over `eta`.
+    pub mis_merges: f32,
 }
 
 /// Transport mode of a subpath: radiance from the camera, importance from the lights.
@@ -89,6 +97,8 @@ impl Vertex {
             delta: false,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
+            mis_joins: 0.0,
+            mis_merges: 0.0,
         }
     }
 
@@ -105,6 +115,8 @@ impl Vertex {
             delta: false,
             pdf_fwd: 0.0,
             pdf_rev: 0.0,
+            mis_joins: 0.0,
+            mis_merges: 0.0,
         }
     }
 
@@ -232,6 +244,7 @@ pub(super) fn random_walk<R: Uniforms>(
         }
         let here = path.len() - 1;
         path[prev].pdf_rev = path[here].convert_density(pdf_rev, &path[prev]);
+        prefix_sums(scene, path, prev);
         // Russian roulette at every bounce on the throughput's change, the scattering's albedo
         // (SmallVCM's continuation probability): each further vertex costs joins with every
         // vertex of the other subpath, so long subpaths of little weight are cut early.
@@ -243,6 +256,40 @@ pub(super) fn random_walk<R: Uniforms>(
         ray = Ray::spawn(hit.point, hit.normal, v.frame.to_world(s.wi));
     }
     Vec3::ZERO
+}
+
+/// Sets `path[i]`'s [`Vertex::mis_joins`] and [`Vertex::mis_merges`] from `path[i - 1]`'s,
+/// once `path[i].pdf_rev` is known: with `r` the vertex's `pdf_rev / pdf_fwd`, the joins'
+/// sum is `r (1 + the previous sum)` (the `1` being the join whose other subpath starts
+/// here, left out when either of the two vertices it would join across is Dirac), the
+/// merges' `pdf_rev + r (the previous sum)` (no merge at a Dirac vertex). This is
+/// [`other_strategies`]' sum over the subpath's vertices in Horner's form (Georgiev et al.
+/// 2012's recursive weights, in docs/references.md, with pbrt-v3's densities): a camera
+/// subpath's sums start at its second vertex (no strategy has no camera vertex), a light
+/// subpath's at its first (the join with the light point is invalid for a Dirac emitter,
+/// and no merge is at a light).
+fn prefix_sums(scene: &RenderScene, path: &mut [Vertex], i: usize) {
+    let v = &path[i];
+    let r = remap(v.pdf_rev) / remap(v.pdf_fwd);
+    let (joins, merges) = if i == 0 {
+        let delta_light = v.light.is_some_and(|l| scene.lights.lights[l].is_delta());
+        let lit = v.kind == VertexKind::Light && !delta_light;
+        (if lit { r } else { 0.0 }, 0.0)
+    } else {
+        let before = &path[i - 1];
+        let join = if !v.delta && !before.delta { 1.0 } else { 0.0 };
+        let merge = if v.delta { 0.0 } else { v.pdf_rev };
+        (r * (join + before.mis_joins), merge + r * before.mis_merges)
+    };
+    path[i].mis_joins = joins;
+    path[i].mis_merges = merges;
+}
+
+/// A density as the MIS ratios read it: zero (a vertex no strategy samples from that side)
+/// as one.
+#[inline]
+fn remap(pdf: f32) -> f32 {
+    if pdf != 0.0 { pdf } else { 1.0 }
 }
 
 /// The first subpath vertex (after the camera or light point) that plays Russian roulette.
@@ -431,34 +478,32 @@ fn other_strategies(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, j: 
             densities(&light[i])
         }
     };
-    let remap = |f: f32| if f != 0.0 { f } else { 1.0 };
     let merging = eta > 0.0;
-    let mut sum = 0.0f32;
-    let mut ri = 1.0f32;
-    for i in (1..t).rev() {
+    // The vertices up to two before each end keep their subpath's densities: their part of
+    // the sum is the stored prefix ([`prefix_sums`]); the two next to the join are added to
+    // it in the same Horner form.
+    let stored = |v: &Vertex| if merging { v.mis_joins + eta * v.mis_merges } else { v.mis_joins };
+    let mut cam = if t >= 3 { stored(&camera[t - 3]) } else { 0.0 };
+    for i in t.saturating_sub(2).max(1)..t {
         let (c, c_before) = (cam_at(i), cam_at(i - 1));
+        let join = if !c.2 && !c_before.2 { 1.0 } else { 0.0 };
+        cam = remap(c.0) / remap(c.1) * (join + cam);
         // A merge at camera vertex i (not the emitter point that ends an `s = 0` path).
         if merging && !c.2 && (s > 0 || i + 1 < t) {
-            sum += ri * eta * c.0;
-        }
-        ri *= remap(c.0) / remap(c.1);
-        if !c.2 && !c_before.2 {
-            sum += ri;
+            cam += eta * c.0;
         }
     }
-    ri = 1.0;
-    for i in (0..s).rev() {
+    let mut lig = if s >= 3 { stored(&light[s - 3]) } else { 0.0 };
+    for i in s.saturating_sub(2)..s {
         let l = lig_at(i);
-        if merging && i >= 1 && !l.2 {
-            sum += ri * eta * l.0;
-        }
-        ri *= remap(l.0) / remap(l.1);
         let delta_before = if i > 0 { lig_at(i - 1).2 } else { j.delta_light };
-        if !l.2 && !delta_before {
-            sum += ri;
+        let join = if !l.2 && !delta_before { 1.0 } else { 0.0 };
+        lig = remap(l.0) / remap(l.1) * (join + lig);
+        if merging && i >= 1 && !l.2 {
+            lig += eta * l.0;
         }
     }
-    sum
+    cam + lig
 }
 
 /// The balance-heuristic weight of the path made by joining `light[..s]` and `camera[..t]`,
@@ -478,40 +523,40 @@ pub(super) fn mis_weight(
     if s + t == 2 {
         return 1.0;
     }
-    let qs = (s > 0).then(|| if s == 1 { *sampled.unwrap_or(&light[0]) } else { light[s - 1] });
-    let pt = if t == 1 { *sampled.unwrap_or(&camera[0]) } else { camera[t - 1] };
-    let qs_minus = (s > 1).then(|| light[s - 2]);
-    let pt_minus = (t > 1).then(|| camera[t - 2]);
+    let qs = (s > 0).then(|| if s == 1 { sampled.unwrap_or(&light[0]) } else { &light[s - 1] });
+    let pt = if t == 1 { sampled.unwrap_or(&camera[0]) } else { &camera[t - 1] };
+    let qs_minus = (s > 1).then(|| &light[s - 2]);
+    let pt_minus = (t > 1).then(|| &camera[t - 2]);
     // The joined vertices are not Dirac, whatever their BSDF.
-    let mut cam_last = densities(&pt);
+    let mut cam_last = densities(pt);
     cam_last.2 = false;
-    cam_last.0 = match &qs {
-        Some(q) => q.pdf(scene, camera_model, qs_minus.as_ref(), &pt),
+    cam_last.0 = match qs {
+        Some(q) => q.pdf(scene, camera_model, qs_minus, pt),
         None => pt.pdf_light_origin(scene),
     };
-    let cam_prev = pt_minus.as_ref().map(|pm| {
-        let mut c = densities(&camera[t - 2]);
-        c.0 = match &qs {
+    let cam_prev = pt_minus.map(|pm| {
+        let mut c = densities(pm);
+        c.0 = match qs {
             Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
             None => pt.pdf_light(scene, pm),
         };
         c
     });
-    let lig_last = qs.as_ref().map(|q| {
+    let lig_last = qs.map(|q| {
         let mut l = densities(q);
         l.2 = false;
-        l.0 = pt.pdf(scene, camera_model, pt_minus.as_ref(), q);
+        l.0 = pt.pdf(scene, camera_model, pt_minus, q);
         l
     });
-    let lig_prev = match (&qs, &qs_minus) {
+    let lig_prev = match (qs, qs_minus) {
         (Some(q), Some(qm)) => {
-            let mut l = densities(&light[s - 2]);
-            l.0 = q.pdf(scene, camera_model, Some(&pt), qm);
+            let mut l = densities(qm);
+            l.0 = q.pdf(scene, camera_model, Some(pt), qm);
             Some(l)
         }
         _ => None,
     };
-    let first = if s == 1 { qs.as_ref().unwrap_or(&light[0]) } else { light.first().unwrap_or(&pt) };
+    let first = if s == 1 { qs.unwrap_or(&light[0]) } else { light.first().unwrap_or(pt) };
     let delta_light = s > 0 && first.light.is_some_and(|l| scene.lights.lights[l].is_delta());
     let junction = Junction { cam_last, cam_prev, lig_last, lig_prev, delta_light };
     let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, &junction, eta));
