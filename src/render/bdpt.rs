@@ -523,6 +523,14 @@ pub(super) fn mis_weight(
     if s + t == 2 {
         return 1.0;
     }
+    if s >= 2 && t >= 2 {
+        let w = (light[s - 1].p - camera[t - 1].p).normalize_or_zero();
+        let ends = (
+            &JoinEnd::new(&light[s - 1], &light[s - 2], -w),
+            &JoinEnd::new(&camera[t - 1], &camera[t - 2], w),
+        );
+        return balance(light, camera, s, t, &join_junction(scene, light, camera, s, t, ends), eta);
+    }
     let qs = (s > 0).then(|| if s == 1 { sampled.unwrap_or(&light[0]) } else { &light[s - 1] });
     let pt = if t == 1 { sampled.unwrap_or(&camera[0]) } else { &camera[t - 1] };
     let qs_minus = (s > 1).then(|| &light[s - 2]);
@@ -559,8 +567,66 @@ pub(super) fn mis_weight(
     let first = if s == 1 { qs.unwrap_or(&light[0]) } else { light.first().unwrap_or(pt) };
     let delta_light = s > 0 && first.light.is_some_and(|l| scene.lights.lights[l].is_delta());
     let junction = Junction { cam_last, cam_prev, lig_last, lig_prev, delta_light };
-    let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, &junction, eta));
+    balance(light, camera, s, t, &junction, eta)
+}
+
+/// The balance-heuristic weight of the join `(s, t)` whose junction densities are `junction`.
+#[inline]
+fn balance(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, junction: &Junction, eta: f32) -> f32 {
+    let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, junction, eta));
     if w.is_finite() { w } else { 0.0 }
+}
+
+/// A surface vertex `v` at one end of a join, reached from `before`, seen from the other
+/// end: the unit direction `w` to the other end, and in `v`'s frame that direction and the
+/// one to `before`. Each is the same arithmetic as [`Vertex::f`] and [`Vertex::pdf`] do, done
+/// once for the join's BSDF value and its four junction densities ([`mis_weight`]).
+struct JoinEnd {
+    /// Towards the other end, local.
+    w: Vec3,
+    /// Towards the previous vertex of its subpath, local.
+    back: Vec3,
+}
+
+impl JoinEnd {
+    #[inline]
+    fn new(v: &Vertex, before: &Vertex, w: Vec3) -> Self {
+        Self { w: v.frame.to_local(w), back: v.frame.to_local((before.p - v.p).normalize_or_zero()) }
+    }
+}
+
+/// The junction densities of the join of surface vertices `light[s - 1]` and
+/// `camera[t - 1]` (`s, t >= 2`) from their [`JoinEnd`]s: the general case of
+/// [`mis_weight`], which [`connect`] shares with it (the directions computed once).
+fn join_junction(
+    scene: &RenderScene,
+    light: &[Vertex],
+    camera: &[Vertex],
+    s: usize,
+    t: usize,
+    ends: (&JoinEnd, &JoinEnd),
+) -> Junction {
+    let (qe, pe) = ends;
+    let (qs, pt) = (&light[s - 1], &camera[t - 1]);
+    let (qs_minus, pt_minus) = (&light[s - 2], &camera[t - 2]);
+    let mut cam_last = densities(pt);
+    cam_last.2 = false;
+    cam_last.0 = qs.convert_density(qs.bsdf.pdf(qe.back, qe.w), pt);
+    let mut cam_prev = densities(pt_minus);
+    cam_prev.0 = pt.convert_density(pt.bsdf.pdf(pe.w, pe.back), pt_minus);
+    let mut lig_last = densities(qs);
+    lig_last.2 = false;
+    lig_last.0 = pt.convert_density(pt.bsdf.pdf(pe.back, pe.w), qs);
+    let mut lig_prev = densities(qs_minus);
+    lig_prev.0 = qs.convert_density(qs.bsdf.pdf(qe.w, qe.back), qs_minus);
+    let delta_light = light[0].light.is_some_and(|l| scene.lights.lights[l].is_delta());
+    Junction {
+        cam_last,
+        cam_prev: Some(cam_prev),
+        lig_last: Some(lig_last),
+        lig_prev: Some(lig_prev),
+        delta_light,
+    }
 }
 
 /// The weight of merging the eye vertex `camera[t - 1]` with the light vertex `light[m]`
@@ -767,21 +833,27 @@ pub(super) fn connect(
         if !qs.connectible() || !pt.connectible() {
             return None;
         }
-        let mut l = qs.beta * qs.f(pt) * pt.f(qs) * pt.beta;
+        // The directions both BSDFs and the weight's densities read, computed once.
+        let d = qs.p - pt.p;
+        let w = d.normalize_or_zero();
+        let (qe, pe) = (JoinEnd::new(qs, &light[s - 2], -w), JoinEnd::new(pt, &camera[t - 2], w));
+        let f_q = qs.bsdf.eval(qs.frame.to_local(qs.wo), qe.w);
+        let f_p = pt.bsdf.eval(pt.frame.to_local(pt.wo), pe.w);
+        let mut l = qs.beta * f_q * f_p * pt.beta;
         if l == Vec3::ZERO {
             return None;
         }
-        let w = qs.p - pt.p;
-        let d2 = w.length_squared();
+        let d2 = d.length_squared();
         if d2 == 0.0 {
             return None;
         }
-        let w = w / d2.sqrt();
-        l *= qs.n.dot(w).abs() * pt.n.dot(w).abs() / d2;
-        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) {
+        let wn = d / d2.sqrt();
+        l *= qs.n.dot(wn).abs() * pt.n.dot(wn).abs() / d2;
+        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) || !l.is_finite() {
             return None;
         }
-        l
+        let junction = join_junction(scene, light, camera, s, t, (&qe, &pe));
+        return Some((l * balance(light, camera, s, t, &junction, eta), None));
     };
     if l == Vec3::ZERO || !l.is_finite() {
         return None;
