@@ -133,7 +133,7 @@ impl Vertex {
 
     /// The BSDF value from the previous vertex towards `next` (surfaces; the BSDFs that can
     /// be evaluated, Lambert and GGX metal, are their own adjoints).
-    #[inline]
+    #[cfg(test)]
     fn f(&self, next: &Vertex) -> Vec3 {
         let wi = (next.p - self.p).normalize_or_zero();
         self.bsdf.eval(self.frame.to_local(self.wo), self.frame.to_local(wi))
@@ -509,8 +509,11 @@ fn other_strategies(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, j: 
 /// The balance-heuristic weight of the path made by joining `light[..s]` and `camera[..t]`,
 /// with `sampled` standing in for the sampled endpoint of the `s = 1` or `t = 1` strategies
 /// (pbrt-v3 sec. 16.3.4, `MISWeight`); `eta` as in [`other_strategies`] (zero: BDPT alone).
+/// [`connect`] computes the same through [`Join::weight`], reusing its BSDF values'
+/// directions; the tests check this against the balance heuristic from scratch.
+#[cfg(test)]
 #[allow(clippy::too_many_arguments)]
-pub(super) fn mis_weight(
+fn mis_weight(
     scene: &RenderScene,
     camera_model: &Camera,
     light: &[Vertex],
@@ -523,64 +526,102 @@ pub(super) fn mis_weight(
     if s + t == 2 {
         return 1.0;
     }
-    if s >= 2 && t >= 2 {
-        let w = (light[s - 1].p - camera[t - 1].p).normalize_or_zero();
-        let ends = (
-            &JoinEnd::new(&light[s - 1], &light[s - 2], -w),
-            &JoinEnd::new(&camera[t - 1], &camera[t - 2], w),
-        );
-        return balance(light, camera, s, t, &join_junction(scene, light, camera, s, t, ends), eta);
+    let join = Join::new(light, camera, sampled, s, t);
+    let w = join.qs.map_or(Vec3::ZERO, |q| (q.p - join.pt.p).normalize_or_zero());
+    let qe = (s >= 2).then(|| JoinEnd::new(&light[s - 1], &light[s - 2], light[s - 1].frame.to_local(-w)));
+    let pe = (t >= 2 && s >= 1).then(|| JoinEnd::new(join.pt, &camera[t - 2], join.pt.frame.to_local(w)));
+    join.weight(scene, camera_model, qe.as_ref(), pe.as_ref(), eta)
+}
+
+/// The join `(s, t)` of `light[..s]` and `camera[..t]`: its end vertices (`sampled` standing
+/// in for the sampled endpoint of the `s = 1` or `t = 1` strategies).
+struct Join<'a> {
+    light: &'a [Vertex],
+    camera: &'a [Vertex],
+    s: usize,
+    t: usize,
+    /// The light end (none for `s = 0`).
+    qs: Option<&'a Vertex>,
+    /// The camera end.
+    pt: &'a Vertex,
+}
+
+impl<'a> Join<'a> {
+    fn new(
+        light: &'a [Vertex],
+        camera: &'a [Vertex],
+        sampled: Option<&'a Vertex>,
+        s: usize,
+        t: usize,
+    ) -> Self {
+        let qs = (s > 0).then(|| if s == 1 { sampled.unwrap_or(&light[0]) } else { &light[s - 1] });
+        let pt = if t == 1 { sampled.unwrap_or(&camera[0]) } else { &camera[t - 1] };
+        Self { light, camera, s, t, qs, pt }
     }
-    let qs = (s > 0).then(|| if s == 1 { sampled.unwrap_or(&light[0]) } else { &light[s - 1] });
-    let pt = if t == 1 { sampled.unwrap_or(&camera[0]) } else { &camera[t - 1] };
-    let qs_minus = (s > 1).then(|| &light[s - 2]);
-    let pt_minus = (t > 1).then(|| &camera[t - 2]);
-    // The joined vertices are not Dirac, whatever their BSDF.
-    let mut cam_last = densities(pt);
-    cam_last.2 = false;
-    cam_last.0 = match qs {
-        Some(q) => q.pdf(scene, camera_model, qs_minus, pt),
-        None => pt.pdf_light_origin(scene),
-    };
-    let cam_prev = pt_minus.map(|pm| {
-        let mut c = densities(pm);
-        c.0 = match qs {
-            Some(q) => pt.pdf(scene, camera_model, Some(q), pm),
-            None => pt.pdf_light(scene, pm),
+
+    /// The balance-heuristic weight (see [`mis_weight`]), `qe` and `pe` the [`JoinEnd`]s of
+    /// the surface ends (`s >= 2`; `t >= 2` with `s >= 1`), whose directions the join's BSDF
+    /// values have already computed.
+    fn weight(
+        &self,
+        scene: &RenderScene,
+        camera_model: &Camera,
+        qe: Option<&JoinEnd>,
+        pe: Option<&JoinEnd>,
+        eta: f32,
+    ) -> f32 {
+        let (light, camera, s, t, qs, pt) = (self.light, self.camera, self.s, self.t, self.qs, self.pt);
+        let qs_minus = (s > 1).then(|| &light[s - 2]);
+        let pt_minus = (t > 1).then(|| &camera[t - 2]);
+        // The joined vertices are not Dirac, whatever their BSDF.
+        let mut cam_last = densities(pt);
+        cam_last.2 = false;
+        cam_last.0 = match (qs, qe) {
+            (Some(q), Some(e)) => q.convert_density(q.bsdf.pdf(e.back, e.w), pt),
+            (Some(q), None) => q.pdf(scene, camera_model, qs_minus, pt),
+            (None, _) => pt.pdf_light_origin(scene),
         };
-        c
-    });
-    let lig_last = qs.map(|q| {
-        let mut l = densities(q);
-        l.2 = false;
-        l.0 = pt.pdf(scene, camera_model, pt_minus, q);
-        l
-    });
-    let lig_prev = match (qs, qs_minus) {
-        (Some(q), Some(qm)) => {
-            let mut l = densities(qm);
-            l.0 = q.pdf(scene, camera_model, Some(pt), qm);
-            Some(l)
-        }
-        _ => None,
-    };
-    let first = if s == 1 { qs.unwrap_or(&light[0]) } else { light.first().unwrap_or(pt) };
-    let delta_light = s > 0 && first.light.is_some_and(|l| scene.lights.lights[l].is_delta());
-    let junction = Junction { cam_last, cam_prev, lig_last, lig_prev, delta_light };
-    balance(light, camera, s, t, &junction, eta)
+        let cam_prev = pt_minus.map(|pm| {
+            let mut c = densities(pm);
+            c.0 = match (qs, pe) {
+                (Some(_), Some(e)) => pt.convert_density(pt.bsdf.pdf(e.w, e.back), pm),
+                (Some(q), None) => pt.pdf(scene, camera_model, Some(q), pm),
+                (None, _) => pt.pdf_light(scene, pm),
+            };
+            c
+        });
+        let lig_last = qs.map(|q| {
+            let mut l = densities(q);
+            l.2 = false;
+            l.0 = match pe {
+                Some(e) => pt.convert_density(pt.bsdf.pdf(e.back, e.w), q),
+                None => pt.pdf(scene, camera_model, pt_minus, q),
+            };
+            l
+        });
+        let lig_prev = match (qs, qs_minus) {
+            (Some(q), Some(qm)) => {
+                let mut l = densities(qm);
+                l.0 = match qe {
+                    Some(e) => q.convert_density(q.bsdf.pdf(e.w, e.back), qm),
+                    None => q.pdf(scene, camera_model, Some(pt), qm),
+                };
+                Some(l)
+            }
+            _ => None,
+        };
+        let first = if s == 1 { qs.unwrap_or(&light[0]) } else { light.first().unwrap_or(pt) };
+        let delta_light = s > 0 && first.light.is_some_and(|l| scene.lights.lights[l].is_delta());
+        let junction = Junction { cam_last, cam_prev, lig_last, lig_prev, delta_light };
+        let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, &junction, eta));
+        if w.is_finite() { w } else { 0.0 }
+    }
 }
 
-/// The balance-heuristic weight of the join `(s, t)` whose junction densities are `junction`.
-#[inline]
-fn balance(light: &[Vertex], camera: &[Vertex], s: usize, t: usize, junction: &Junction, eta: f32) -> f32 {
-    let w = 1.0 / (1.0 + other_strategies(light, camera, s, t, junction, eta));
-    if w.is_finite() { w } else { 0.0 }
-}
-
-/// A surface vertex `v` at one end of a join, reached from `before`, seen from the other
-/// end: the unit direction `w` to the other end, and in `v`'s frame that direction and the
-/// one to `before`. Each is the same arithmetic as [`Vertex::f`] and [`Vertex::pdf`] do, done
-/// once for the join's BSDF value and its four junction densities ([`mis_weight`]).
+/// A surface vertex `v` at one end of a join, reached from `before`, in its own frame: the
+/// unit direction to the other end and the one to `before`, the same arithmetic as
+/// [`Vertex::f`] and [`Vertex::pdf`] do, done once for the join's BSDF value and its
+/// junction densities ([`Join::weight`]).
 struct JoinEnd {
     /// Towards the other end, local.
     w: Vec3,
@@ -589,43 +630,10 @@ struct JoinEnd {
 }
 
 impl JoinEnd {
+    /// `w`: the local direction to the other end.
     #[inline]
     fn new(v: &Vertex, before: &Vertex, w: Vec3) -> Self {
-        Self { w: v.frame.to_local(w), back: v.frame.to_local((before.p - v.p).normalize_or_zero()) }
-    }
-}
-
-/// The junction densities of the join of surface vertices `light[s - 1]` and
-/// `camera[t - 1]` (`s, t >= 2`) from their [`JoinEnd`]s: the general case of
-/// [`mis_weight`], which [`connect`] shares with it (the directions computed once).
-fn join_junction(
-    scene: &RenderScene,
-    light: &[Vertex],
-    camera: &[Vertex],
-    s: usize,
-    t: usize,
-    ends: (&JoinEnd, &JoinEnd),
-) -> Junction {
-    let (qe, pe) = ends;
-    let (qs, pt) = (&light[s - 1], &camera[t - 1]);
-    let (qs_minus, pt_minus) = (&light[s - 2], &camera[t - 2]);
-    let mut cam_last = densities(pt);
-    cam_last.2 = false;
-    cam_last.0 = qs.convert_density(qs.bsdf.pdf(qe.back, qe.w), pt);
-    let mut cam_prev = densities(pt_minus);
-    cam_prev.0 = pt.convert_density(pt.bsdf.pdf(pe.w, pe.back), pt_minus);
-    let mut lig_last = densities(qs);
-    lig_last.2 = false;
-    lig_last.0 = pt.convert_density(pt.bsdf.pdf(pe.back, pe.w), qs);
-    let mut lig_prev = densities(qs_minus);
-    lig_prev.0 = qs.convert_density(qs.bsdf.pdf(qe.w, qe.back), qs_minus);
-    let delta_light = light[0].light.is_some_and(|l| scene.lights.lights[l].is_delta());
-    Junction {
-        cam_last,
-        cam_prev: Some(cam_prev),
-        lig_last: Some(lig_last),
-        lig_prev: Some(lig_prev),
-        delta_light,
+        Self { w, back: v.frame.to_local((before.p - v.p).normalize_or_zero()) }
     }
 }
 
@@ -712,6 +720,11 @@ pub(super) fn connect_all<R: Uniforms>(
     rays: &mut u64,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
+    // The light image's splats land on scattered pixels, mostly out of cache: they are held
+    // back and added together, so that their memory accesses overlap (the sums are exact,
+    // so the order does not matter).
+    let mut held = [(Vec2::ZERO, Vec3::ZERO); HELD_SPLATS];
+    let mut n_held = 0;
     // Camera vertices up to which every bounce was Dirac.
     let specular_prefix = 1 + camera.iter().skip(1).take_while(|v| v.delta).count();
     for t in 1..=camera.len() {
@@ -728,14 +741,25 @@ pub(super) fn connect_all<R: Uniforms>(
             let u = rng.next_2d();
             if let Some((c, splat)) = connect(scene, camera_model, light, camera, si, t, u, eta, rays) {
                 match splat {
-                    Some(p) => film.add(p, c),
+                    Some(p) => {
+                        if n_held == HELD_SPLATS {
+                            held.iter().for_each(|&(p, c)| film.add(p, c));
+                            n_held = 0;
+                        }
+                        held[n_held] = (p, c);
+                        n_held += 1;
+                    }
                     None => l += c,
                 }
             }
         }
     }
+    held[..n_held].iter().for_each(|&(p, c)| film.add(p, c));
     l
 }
+
+/// Splats [`connect_all`] holds back before adding them to the film.
+const HELD_SPLATS: usize = 16;
 
 /// The camera subpath through film point `fp` and lens point `lens` (both in [0,1)^2), at most
 /// `max_vertices` vertices with the lens point; returns the background radiance it picks up
@@ -773,6 +797,8 @@ pub(super) fn connect(
 ) -> Option<(Vec3, Option<Vec2>)> {
     let mut sampled = None;
     let mut splat = None;
+    // The surface ends' directions, computed once for the BSDF values and the weight.
+    let (mut qe, mut pe) = (None, None);
     let l = if s == 0 {
         let pt = &camera[t - 1];
         pt.light?;
@@ -790,13 +816,15 @@ pub(super) fn connect(
             Vec3::splat(c.importance / c.pdf),
             None,
         );
-        let mut l = qs.beta * qs.f(&v) * v.beta;
+        let qw = qs.frame.to_local(-(qs.p - v.p).normalize_or_zero());
+        let mut l = qs.beta * qs.bsdf.eval(qs.frame.to_local(qs.wo), qw) * v.beta;
         if qs.on_surface() {
             l *= qs.n.dot(c.wi).abs();
         }
         if l == Vec3::ZERO || blocked(scene, qs, &v, rays) {
             return None;
         }
+        qe = Some(JoinEnd::new(qs, &light[s - 2], qw));
         sampled = Some(v);
         splat = Some(c.film);
         l
@@ -811,7 +839,8 @@ pub(super) fn connect(
         let n = light_normal(scene, index, &ls);
         let mut v = Vertex::endpoint(VertexKind::Light, ls.point, n, ls.li / (pmf * ls.pdf), Some(index));
         v.pdf_fwd = v.pdf_light_origin(scene);
-        let mut l = pt.beta * pt.f(&v) * v.beta;
+        let pw = pt.frame.to_local((v.p - pt.p).normalize_or_zero());
+        let mut l = pt.beta * pt.bsdf.eval(pt.frame.to_local(pt.wo), pw) * v.beta;
         if pt.on_surface() {
             l *= pt.n.dot(ls.wi).abs();
         }
@@ -826,6 +855,7 @@ pub(super) fn connect(
         if scene.accel.occluded(&segment) {
             return None;
         }
+        pe = Some(JoinEnd::new(pt, &camera[t - 2], pw));
         sampled = Some(v);
         l
     } else {
@@ -833,13 +863,13 @@ pub(super) fn connect(
         if !qs.connectible() || !pt.connectible() {
             return None;
         }
-        // The directions both BSDFs and the weight's densities read, computed once.
         let d = qs.p - pt.p;
         let w = d.normalize_or_zero();
-        let (qe, pe) = (JoinEnd::new(qs, &light[s - 2], -w), JoinEnd::new(pt, &camera[t - 2], w));
-        let f_q = qs.bsdf.eval(qs.frame.to_local(qs.wo), qe.w);
-        let f_p = pt.bsdf.eval(pt.frame.to_local(pt.wo), pe.w);
-        let mut l = qs.beta * f_q * f_p * pt.beta;
+        let (qw, pw) = (qs.frame.to_local(-w), pt.frame.to_local(w));
+        let mut l = qs.beta
+            * qs.bsdf.eval(qs.frame.to_local(qs.wo), qw)
+            * pt.bsdf.eval(pt.frame.to_local(pt.wo), pw)
+            * pt.beta;
         if l == Vec3::ZERO {
             return None;
         }
@@ -849,16 +879,27 @@ pub(super) fn connect(
         }
         let wn = d / d2.sqrt();
         l *= qs.n.dot(wn).abs() * pt.n.dot(wn).abs() / d2;
-        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) || !l.is_finite() {
+        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) {
             return None;
         }
-        let junction = join_junction(scene, light, camera, s, t, (&qe, &pe));
-        return Some((l * balance(light, camera, s, t, &junction, eta), None));
+        qe = Some(JoinEnd::new(qs, &light[s - 2], qw));
+        pe = Some(JoinEnd::new(pt, &camera[t - 2], pw));
+        l
     };
     if l == Vec3::ZERO || !l.is_finite() {
         return None;
     }
-    let w = mis_weight(scene, camera_model, light, camera, sampled.as_ref(), s, t, eta);
+    let w = if s + t == 2 {
+        1.0
+    } else {
+        Join::new(light, camera, sampled.as_ref(), s, t).weight(
+            scene,
+            camera_model,
+            qe.as_ref(),
+            pe.as_ref(),
+            eta,
+        )
+    };
     Some((l * w, splat))
 }
 
