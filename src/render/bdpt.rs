@@ -24,7 +24,7 @@ use rayon::prelude::*;
 use super::bsdf::BsdfSample;
 use super::light::importance_weight;
 use super::sampler::Uniforms;
-use super::splat::{SplatFilm, finish};
+use super::splat::{HeldSplats, SplatFilm, finish};
 use super::{Bsdf, Camera, Film, Frame, RenderOutput, RenderScene, RenderSettings, TILE, u2};
 use crate::core::rng::Rng64;
 use crate::core::{Hit, Ray};
@@ -677,7 +677,7 @@ pub(super) fn merge_weight(
 }
 
 /// One camera sample of pixel `(x, y)`: its radiance estimate (strategies with `t >= 2`), with
-/// the `t = 1` light-image contributions splatted on `film`.
+/// the `t = 1` light-image contributions held in `splats`.
 #[allow(clippy::too_many_arguments)]
 fn sample(
     scene: &RenderScene,
@@ -686,7 +686,7 @@ fn sample(
     (x, y, split): (u32, u32, bool),
     rng: &mut Rng64,
     paths: &mut (Vec<Vertex>, Vec<Vertex>),
-    film: &mut SplatFilm,
+    splats: &mut HeldSplats,
     rays: &mut u64,
 ) -> Vec3 {
     let (camera, light) = paths;
@@ -695,7 +695,7 @@ fn sample(
     let fp = Vec2::new((x as f32 + o.x) / s.width as f32, (y as f32 + o.y) / s.height as f32);
     let mut l = camera_subpath(scene, camera_model, fp, lens, s.max_depth as usize + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
-    l += connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, split, rng, film, rays);
+    l += connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, split, rng, splats, rays);
     if split {
         l += specular_emission(scene, camera_model, s, x, y, rng, rays);
     }
@@ -704,7 +704,7 @@ fn sample(
 
 /// Every join of `light` and `camera` of at most `max_depth` bounces, weighted by MIS (with
 /// merging strategies counted when `eta > 0`): the radiance of the strategies with `t >= 2`;
-/// the `t = 1` ones are splatted on `film`. With `split`, emitters the camera subpath reaches
+/// the `t = 1` ones are held in `splats` for the light image. With `split`, emitters the camera subpath reaches
 /// by Dirac bounces alone are left out ([`specular_emission`] takes them).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn connect_all<R: Uniforms>(
@@ -716,15 +716,10 @@ pub(super) fn connect_all<R: Uniforms>(
     eta: f32,
     split: bool,
     rng: &mut R,
-    film: &mut SplatFilm,
+    splats: &mut HeldSplats,
     rays: &mut u64,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
-    // The light image's splats land on scattered pixels, mostly out of cache: they are held
-    // back and added together, so that their memory accesses overlap (the sums are exact,
-    // so the order does not matter).
-    let mut held = [(Vec2::ZERO, Vec3::ZERO); HELD_SPLATS];
-    let mut n_held = 0;
     // Camera vertices up to which every bounce was Dirac.
     let specular_prefix = 1 + camera.iter().skip(1).take_while(|v| v.delta).count();
     for t in 1..=camera.len() {
@@ -741,25 +736,17 @@ pub(super) fn connect_all<R: Uniforms>(
             let u = rng.next_2d();
             if let Some((c, splat)) = connect(scene, camera_model, light, camera, si, t, u, eta, rays) {
                 match splat {
-                    Some(p) => {
-                        if n_held == HELD_SPLATS {
-                            held.iter().for_each(|&(p, c)| film.add(p, c));
-                            n_held = 0;
-                        }
-                        held[n_held] = (p, c);
-                        n_held += 1;
-                    }
+                    Some(p) => splats.push(p, c),
                     None => l += c,
                 }
             }
         }
     }
-    held[..n_held].iter().for_each(|&(p, c)| film.add(p, c));
     l
 }
 
-/// Splats [`connect_all`] holds back before adding them to the film.
-const HELD_SPLATS: usize = 16;
+/// Light-image splats a worker holds back ([`HeldSplats`]) before adding them to its film.
+pub(super) const HELD_SPLATS: usize = 64;
 
 /// The camera subpath through film point `fp` and lens point `lens` (both in [0,1)^2), at most
 /// `max_vertices` vertices with the lens point; returns the background radiance it picks up
@@ -927,6 +914,7 @@ pub fn render_on(
             |(mut done, mut film, mut rays), &(x0, y0)| {
                 let (x1, y1) = ((x0 + TILE).min(w), (y0 + TILE).min(h));
                 let mut paths = (Vec::new(), Vec::new());
+                let mut held = HeldSplats::default();
                 let mut px = Vec::with_capacity(((x1 - x0) * (y1 - y0)) as usize);
                 for y in y0..y1 {
                     for x in x0..x1 {
@@ -941,16 +929,20 @@ pub fn render_on(
                                 (x, y, split),
                                 &mut rng,
                                 &mut paths,
-                                &mut film,
+                                &mut held,
                                 &mut rays,
                             );
                             if l.is_finite() {
                                 sum += l;
                             }
+                            if held.len() >= HELD_SPLATS {
+                                held.add_to(&mut film);
+                            }
                         }
                         px.push(sum / settings.spp as f32);
                     }
                 }
+                held.add_to(&mut film);
                 progress(u64::from((x1 - x0) * (y1 - y0)));
                 done.push(((x0, y0), px));
                 (done, film, rays)

@@ -64,6 +64,40 @@ impl SplatFilm {
     }
 }
 
+/// Splats held back, then added to a [`SplatFilm`] in one run ([`HeldSplats::add_to`]): they
+/// land on scattered pixels, mostly out of cache, and added one at a time between rays each
+/// waits for memory, while in a run the accesses overlap. The sums are exact, so holding
+/// them back changes no bit of the image.
+#[derive(Clone, Debug, Default)]
+pub struct HeldSplats(Vec<(Vec2, Vec3)>);
+
+impl HeldSplats {
+    /// Holds `value` for image point `film` (see [`SplatFilm::add`]).
+    #[inline]
+    pub fn push(&mut self, film: Vec2, value: Vec3) {
+        self.0.push((film, value));
+    }
+
+    /// How many are held.
+    #[inline]
+    pub fn len(&self) -> usize {
+        self.0.len()
+    }
+
+    /// Whether none is held.
+    #[inline]
+    pub fn is_empty(&self) -> bool {
+        self.0.is_empty()
+    }
+
+    /// Adds every held splat to `film` and lets them go.
+    pub fn add_to(&mut self, film: &mut SplatFilm) {
+        for (p, v) in self.0.drain(..) {
+            film.add(p, v);
+        }
+    }
+}
+
 /// Ends a render that splats: gathers the pixels each process computed (`film`, zero where
 /// another process owns the pixel) and adds up the light images of every process exactly;
 /// the root gets `film + splats / spp` (the light image is an estimate over `spp` light paths

@@ -34,11 +34,11 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bdpt::{
-    Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight, specular_emission,
-    splits_pixel,
+    HELD_SPLATS, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
+    specular_emission, splits_pixel,
 };
 use super::point_grid::PointGrid;
-use super::splat::{SplatFilm, finish};
+use super::splat::{HeldSplats, SplatFilm, finish};
 use super::{Camera, Film, RenderOutput, RenderScene, RenderSettings, u2};
 use crate::core::rng::{Rng64, stream};
 use crate::dist::Cluster;
@@ -175,8 +175,8 @@ struct Iteration<'a> {
     norm: f32,
 }
 
-/// One camera sample of pixel `(x, y)`: joins with its light subpath (splatting `t = 1` on
-/// `film`) and merges with every kept light vertex near its vertices.
+/// One camera sample of pixel `(x, y)`: joins with its light subpath (holding the `t = 1`
+/// splats in `splats`) and merges with every kept light vertex near its vertices.
 #[allow(clippy::too_many_arguments)]
 fn sample(
     scene: &RenderScene,
@@ -186,7 +186,7 @@ fn sample(
     iteration: &Iteration,
     rng: &mut Rng64,
     camera: &mut Vec<Vertex>,
-    film: &mut SplatFilm,
+    splats: &mut HeldSplats,
     rays: &mut u64,
 ) -> Vec3 {
     let o = u2(rng);
@@ -196,7 +196,7 @@ fn sample(
     let mut l = camera_subpath(scene, camera_model, fp, lens, max_depth + 2, rng, camera, rays);
     let paths = iteration.paths;
     let own = paths.path(y as usize * s.width as usize + x as usize);
-    l += connect_all(scene, camera_model, s.max_depth, own, camera, iteration.eta, split, rng, film, rays);
+    l += connect_all(scene, camera_model, s.max_depth, own, camera, iteration.eta, split, rng, splats, rays);
     for t in 2..=camera.len() {
         let z = &camera[t - 1];
         if z.delta || z.bsdf.is_delta() {
@@ -286,6 +286,7 @@ pub fn render_on(
                 let slot = rayon::current_thread_index().unwrap_or(0) % films.len();
                 let mut film = films[slot].lock().unwrap_or_else(PoisonError::into_inner);
                 let mut camera_path = Vec::new();
+                let mut held = HeldSplats::default();
                 let mut rays = 0;
                 let px = super::tile_pixels(x0, y0, w, h)
                     .map(|i| {
@@ -300,12 +301,16 @@ pub fn render_on(
                             &iteration,
                             &mut rng,
                             &mut camera_path,
-                            &mut film,
+                            &mut held,
                             &mut rays,
                         );
+                        if held.len() >= HELD_SPLATS {
+                            held.add_to(&mut film);
+                        }
                         if l.is_finite() { l } else { Vec3::ZERO }
                     })
                     .collect();
+                held.add_to(&mut film);
                 ((x0, y0), px, rays)
             })
             .collect();
