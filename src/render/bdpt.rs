@@ -56,6 +56,12 @@ pub struct Vertex {
     pub bsdf: Bsdf,
     /// Unit direction to the previous vertex of its subpath (surfaces).
     pub wo: Vec3,
+    /// `wo` in the shading frame (surfaces).
+    pub wo_local: Vec3,
+    /// In the shading frame, the unit direction to the previous vertex of its subpath taken
+    /// between the two positions, as the joins' densities read it (surfaces after the first
+    /// vertex; kept here since every join at this vertex reads the same).
+    pub back_local: Vec3,
     /// The light this vertex lies on (light vertices, and surface hits on emitters).
     pub light: Option<usize>,
     /// Throughput of the subpath up to and including this vertex.
@@ -92,6 +98,8 @@ impl Vertex {
             frame: Frame::new(if n == Vec3::ZERO { Vec3::Z } else { n }),
             bsdf: Bsdf::Lambert { albedo: Vec3::ZERO },
             wo: Vec3::ZERO,
+            wo_local: Vec3::ZERO,
+            back_local: Vec3::ZERO,
             light,
             beta,
             delta: false,
@@ -103,13 +111,16 @@ impl Vertex {
     }
 
     fn surface(scene: &RenderScene, hit: &Hit, wo: Vec3, beta: Vec3) -> Self {
+        let frame = Frame::new(hit.normal);
         Self {
             kind: VertexKind::Surface,
             p: hit.point,
             n: hit.normal,
-            frame: Frame::new(hit.normal),
+            frame,
             bsdf: scene.surfaces[hit.surface as usize].bsdf,
             wo,
+            wo_local: frame.to_local(wo),
+            back_local: Vec3::ZERO,
             light: scene.light_of(hit),
             beta,
             delta: false,
@@ -220,13 +231,14 @@ pub(super) fn random_walk<R: Uniforms>(
         let mut v = Vertex::surface(scene, &hit, -ray.dir, beta);
         let prev = path.len() - 1;
         v.pdf_fwd = path[prev].convert_density(pdf_fwd, &v);
+        v.back_local = v.frame.to_local((path[prev].p - v.p).normalize_or_zero());
         let u = rng.next_2d();
         let (uc, u_rr) = (rng.next_1d(), rng.next_1d());
         path.push(v);
         if path.len() >= max_vertices {
             break;
         }
-        let wo = v.frame.to_local(-ray.dir);
+        let wo = v.wo_local;
         let Some(s) = v.bsdf.sample(wo, u, uc) else { break };
         let before = beta.max_element();
         beta *= if mode == Mode::Importance { importance_weight(&v.bsdf, wo, &s) } else { s.weight() };
@@ -528,8 +540,8 @@ fn mis_weight(
     }
     let join = Join::new(light, camera, sampled, s, t);
     let w = join.qs.map_or(Vec3::ZERO, |q| (q.p - join.pt.p).normalize_or_zero());
-    let qe = (s >= 2).then(|| JoinEnd::new(&light[s - 1], &light[s - 2], light[s - 1].frame.to_local(-w)));
-    let pe = (t >= 2 && s >= 1).then(|| JoinEnd::new(join.pt, &camera[t - 2], join.pt.frame.to_local(w)));
+    let qe = (s >= 2).then(|| JoinEnd::new(&light[s - 1], light[s - 1].frame.to_local(-w)));
+    let pe = (t >= 2 && s >= 1).then(|| JoinEnd::new(join.pt, join.pt.frame.to_local(w)));
     join.weight(scene, camera_model, qe.as_ref(), pe.as_ref(), eta)
 }
 
@@ -618,10 +630,10 @@ impl<'a> Join<'a> {
     }
 }
 
-/// A surface vertex `v` at one end of a join, reached from `before`, in its own frame: the
-/// unit direction to the other end and the one to `before`, the same arithmetic as
-/// [`Vertex::f`] and [`Vertex::pdf`] do, done once for the join's BSDF value and its
-/// junction densities ([`Join::weight`]).
+/// A surface vertex at one end of a join, in its own frame: the unit direction to the other
+/// end and the one to the previous vertex of its subpath ([`Vertex::back_local`]), the same
+/// arithmetic as [`Vertex::f`] and [`Vertex::pdf`] do, done once for the join's BSDF value
+/// and its junction densities ([`Join::weight`]).
 struct JoinEnd {
     /// Towards the other end, local.
     w: Vec3,
@@ -630,10 +642,10 @@ struct JoinEnd {
 }
 
 impl JoinEnd {
-    /// `w`: the local direction to the other end.
+    /// `w`: the local direction from `v` to the other end.
     #[inline]
-    fn new(v: &Vertex, before: &Vertex, w: Vec3) -> Self {
-        Self { w, back: v.frame.to_local((before.p - v.p).normalize_or_zero()) }
+    fn new(v: &Vertex, w: Vec3) -> Self {
+        Self { w, back: v.back_local }
     }
 }
 
@@ -645,7 +657,6 @@ impl JoinEnd {
 /// vertex before it keeps its subpath's densities (no connection could end there).
 pub(super) fn merge_weight(
     scene: &RenderScene,
-    camera_model: &Camera,
     light: &[Vertex],
     camera: &[Vertex],
     t: usize,
@@ -656,14 +667,17 @@ pub(super) fn merge_weight(
     let pt_minus = &camera[t - 2];
     let mut cam_last = densities(pt);
     cam_last.0 = photon.pdf_fwd;
+    // The directions at the junction, computed once (as in [`Join::weight`]).
+    let w = (q.p - pt.p).normalize_or_zero();
+    let pw = pt.frame.to_local(w);
     let mut cam_prev = densities(pt_minus);
-    cam_prev.0 = pt.pdf(scene, camera_model, Some(q), pt_minus);
+    cam_prev.0 = pt.convert_density(pt.bsdf.pdf(pw, pt.back_local), pt_minus);
     let mut lig_last = densities(q);
-    lig_last.0 = pt.pdf(scene, camera_model, Some(pt_minus), q);
+    lig_last.0 = pt.convert_density(pt.bsdf.pdf(pt.back_local, pw), q);
     let lig_prev = (m >= 2).then(|| {
         let mut l = densities(&light[m - 2]);
         if !q.delta {
-            l.0 = q.pdf(scene, camera_model, Some(pt), &light[m - 2]);
+            l.0 = q.convert_density(q.bsdf.pdf(q.frame.to_local(-w), q.back_local), &light[m - 2]);
         }
         l
     });
@@ -804,14 +818,14 @@ pub(super) fn connect(
             None,
         );
         let qw = qs.frame.to_local(-(qs.p - v.p).normalize_or_zero());
-        let mut l = qs.beta * qs.bsdf.eval(qs.frame.to_local(qs.wo), qw) * v.beta;
+        let mut l = qs.beta * qs.bsdf.eval(qs.wo_local, qw) * v.beta;
         if qs.on_surface() {
             l *= qs.n.dot(c.wi).abs();
         }
         if l == Vec3::ZERO || blocked(scene, qs, &v, rays) {
             return None;
         }
-        qe = Some(JoinEnd::new(qs, &light[s - 2], qw));
+        qe = Some(JoinEnd::new(qs, qw));
         sampled = Some(v);
         splat = Some(c.film);
         l
@@ -827,7 +841,7 @@ pub(super) fn connect(
         let mut v = Vertex::endpoint(VertexKind::Light, ls.point, n, ls.li / (pmf * ls.pdf), Some(index));
         v.pdf_fwd = v.pdf_light_origin(scene);
         let pw = pt.frame.to_local((v.p - pt.p).normalize_or_zero());
-        let mut l = pt.beta * pt.bsdf.eval(pt.frame.to_local(pt.wo), pw) * v.beta;
+        let mut l = pt.beta * pt.bsdf.eval(pt.wo_local, pw) * v.beta;
         if pt.on_surface() {
             l *= pt.n.dot(ls.wi).abs();
         }
@@ -842,7 +856,7 @@ pub(super) fn connect(
         if scene.accel.occluded(&segment) {
             return None;
         }
-        pe = Some(JoinEnd::new(pt, &camera[t - 2], pw));
+        pe = Some(JoinEnd::new(pt, pw));
         sampled = Some(v);
         l
     } else {
@@ -853,10 +867,7 @@ pub(super) fn connect(
         let d = qs.p - pt.p;
         let w = d.normalize_or_zero();
         let (qw, pw) = (qs.frame.to_local(-w), pt.frame.to_local(w));
-        let mut l = qs.beta
-            * qs.bsdf.eval(qs.frame.to_local(qs.wo), qw)
-            * pt.bsdf.eval(pt.frame.to_local(pt.wo), pw)
-            * pt.beta;
+        let mut l = qs.beta * qs.bsdf.eval(qs.wo_local, qw) * pt.bsdf.eval(pt.wo_local, pw) * pt.beta;
         if l == Vec3::ZERO {
             return None;
         }
@@ -869,8 +880,8 @@ pub(super) fn connect(
         if l == Vec3::ZERO || blocked(scene, pt, qs, rays) {
             return None;
         }
-        qe = Some(JoinEnd::new(qs, &light[s - 2], qw));
-        pe = Some(JoinEnd::new(pt, &camera[t - 2], pw));
+        qe = Some(JoinEnd::new(qs, qw));
+        pe = Some(JoinEnd::new(pt, pw));
         l
     };
     if l == Vec3::ZERO || !l.is_finite() {
@@ -1189,7 +1200,7 @@ mod tests {
                     }
                     let mut joined: Vec<Vertex> = light[..m].to_vec();
                     joined.push(photon);
-                    let w = merge_weight(&scene, &cam, &joined, &camera, t, eta);
+                    let w = merge_weight(&scene, &joined, &camera, t, eta);
                     let sampled = (m == 1).then_some(&light[0]);
                     let b = brute_weight(&scene, &cam, &light, &camera, sampled, m, t, f64::from(eta), true);
                     if !b.is_finite() || b == 0.0 {

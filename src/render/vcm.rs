@@ -202,7 +202,7 @@ fn sample(
         if z.delta || z.bsdf.is_delta() {
             continue;
         }
-        let (wo, mut merged) = (z.frame.to_local(z.wo), Vec3::ZERO);
+        let (wo, mut merged) = (z.wo_local, Vec3::ZERO);
         iteration.grid.for_each_within(z.p, |id| {
             let i = id as usize;
             let start = paths.start_of[i] as usize;
@@ -219,7 +219,7 @@ fn sample(
             if f == Vec3::ZERO {
                 return;
             }
-            let w = merge_weight(scene, camera_model, &paths.vertices[start..=i], camera, t, iteration.eta);
+            let w = merge_weight(scene, &paths.vertices[start..=i], camera, t, iteration.eta);
             merged += photon.beta * f * w;
         });
         l += z.beta * merged * iteration.norm;
