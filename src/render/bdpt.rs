@@ -1091,7 +1091,7 @@ mod tests {
         let mut rng = stream(5, 0, 0);
         let (mut camera, mut light) = (Vec::new(), Vec::new());
         let mut rays = 0;
-        let mut checked = 0;
+        let (mut checked, mut deep) = (0, 0);
         for n in 0..400 {
             subpaths(&scene, &cam, n, settings.max_depth, &mut rng, (&mut camera, &mut light), &mut rays);
             for t in 1..=camera.len() {
@@ -1155,11 +1155,14 @@ mod tests {
                         continue;
                     }
                     checked += 1;
+                    // Joins that read a subpath's stored prefix sums (Vertex::mis_joins).
+                    deep += usize::from(s >= 3 || t >= 4);
                     assert!((f64::from(w) - b).abs() <= 1e-2 * b.max(1e-2), "s {s} t {t}: {w} vs {b}");
                 }
             }
         }
         assert!(checked > 1000, "{checked}");
+        assert!(deep > 300, "{deep} of {checked}");
     }
 
     /// The weight of a merge (the eye vertex `camera[t - 1]` with a light vertex at the same
@@ -1176,7 +1179,7 @@ mod tests {
         let mut rng = stream(9, 0, 0);
         let (mut camera, mut light) = (Vec::new(), Vec::new());
         let mut rays = 0;
-        let (mut checked, mut weight_sum) = (0, 0.0f64);
+        let (mut checked, mut deep, mut weight_sum) = (0, 0, 0.0f64);
         for n in 0..400 {
             subpaths(&scene, &cam, n, 6, &mut rng, (&mut camera, &mut light), &mut rays);
             for t in 2..=camera.len() {
@@ -1207,6 +1210,7 @@ mod tests {
                         continue;
                     }
                     checked += 1;
+                    deep += usize::from(m >= 3 || t >= 4);
                     weight_sum += b;
                     assert!((f64::from(w) - b).abs() <= 1e-2 * b.max(1e-2), "m {m} t {t}: {w} vs {b}");
                 }
@@ -1214,6 +1218,7 @@ mod tests {
         }
         let mean = weight_sum / f64::from(checked);
         assert!(checked > 1000, "{checked}");
+        assert!(deep > 300, "{deep} of {checked}");
         // Merges neither negligible nor alone, so the joins' terms are tested too.
         assert!((0.02..0.98).contains(&mean), "mean merge weight {mean}");
     }
