@@ -40,12 +40,18 @@ impl SplatFilm {
         if !value.is_finite() {
             return;
         }
-        let x = ((film.x * self.width as f32) as u32).min(self.width - 1);
-        let y = ((film.y * self.height as f32) as u32).min(self.height - 1);
-        let i = 3 * (y as usize * self.width as usize + x as usize);
+        let i = self.index(film);
         for (k, v) in value.to_array().into_iter().enumerate() {
             self.sums[i + k] = self.sums[i + k].saturating_add(to_fixed(f64::from(v), UNIT));
         }
+    }
+
+    /// Where in `sums` the pixel of image point `film` starts.
+    #[inline]
+    fn index(&self, film: Vec2) -> usize {
+        let x = ((film.x * self.width as f32) as u32).min(self.width - 1);
+        let y = ((film.y * self.height as f32) as u32).min(self.height - 1);
+        3 * (y as usize * self.width as usize + x as usize)
     }
 
     /// Adds another film's sums (exact, so the order of merging does not matter).
@@ -69,32 +75,48 @@ impl SplatFilm {
 /// waits for memory, while in a run the accesses overlap. The sums are exact, so holding
 /// them back changes no bit of the image.
 #[derive(Clone, Debug, Default)]
-pub struct HeldSplats(Vec<(Vec2, Vec3)>);
+pub struct HeldSplats {
+    held: Vec<(Vec2, Vec3)>,
+    /// The held splats' places in the film's sums and fixed-point values ([`Self::add_to`]).
+    fixed: Vec<(usize, [u128; 3])>,
+}
 
 impl HeldSplats {
     /// Holds `value` for image point `film` (see [`SplatFilm::add`]).
     #[inline]
     pub fn push(&mut self, film: Vec2, value: Vec3) {
-        self.0.push((film, value));
+        self.held.push((film, value));
     }
 
     /// How many are held.
     #[inline]
     pub fn len(&self) -> usize {
-        self.0.len()
+        self.held.len()
     }
 
     /// Whether none is held.
     #[inline]
     pub fn is_empty(&self) -> bool {
-        self.0.is_empty()
+        self.held.is_empty()
     }
 
-    /// Adds every held splat to `film` and lets them go.
+    /// Adds every held splat to `film` (as [`SplatFilm::add`] does) and lets them go: first
+    /// every place and fixed-point value, then the sums in a loop of a few instructions a
+    /// splat, so that many of the sums' cache misses are in flight at once.
     pub fn add_to(&mut self, film: &mut SplatFilm) {
-        for (p, v) in self.0.drain(..) {
-            film.add(p, v);
+        self.fixed.clear();
+        self.fixed.extend(
+            self.held
+                .iter()
+                .filter(|(_, v)| v.is_finite())
+                .map(|&(p, v)| (film.index(p), v.to_array().map(|c| to_fixed(f64::from(c), UNIT)))),
+        );
+        for &(i, f) in &self.fixed {
+            for (sum, v) in film.sums[i..i + 3].iter_mut().zip(f) {
+                *sum = sum.saturating_add(v);
+            }
         }
+        self.held.clear();
     }
 }
 
