@@ -5,7 +5,10 @@
 //! `t = 1` light tracing splatted onto the film through the camera's importance, and the
 //! general joins of two subpath vertices. Every strategy is weighted by multiple importance
 //! sampling with the balance heuristic, computed from each vertex's forward and reverse
-//! area densities (Veach 1997, sec. 10.2; pbrt-v3 sec. 16.3.4).
+//! area densities (Veach 1997, sec. 10.2; pbrt-v3 sec. 16.3.4). Each vertex keeps the running
+//! sum of its subpath's part of the heuristic's denominator ([`Vertex::mis_joins`], the
+//! recursive form of Georgiev et al. 2012, in docs/references.md), so a join's weight
+//! reads the two vertices at each side of it and one stored sum, whatever the depth.
 //!
 //! Subpaths end by Russian roulette at every bounce, continuing with the probability of the
 //! throughput's change (the albedo of the sampled lobe, as SmallVCM does), which keeps every
@@ -571,9 +574,11 @@ impl<'a> Join<'a> {
         Self { light, camera, s, t, qs, pt }
     }
 
-    /// The balance-heuristic weight (see [`mis_weight`]), `qe` and `pe` the [`JoinEnd`]s of
-    /// the surface ends (`s >= 2`; `t >= 2` with `s >= 1`), whose directions the join's BSDF
-    /// values have already computed.
+    /// The balance-heuristic weight of the join (pbrt-v3 sec. 16.3.4, `MISWeight`; `eta` as
+    /// in [`other_strategies`], zero for BDPT alone), `qe` and `pe` the [`JoinEnd`]s of the
+    /// surface ends (`s >= 2`; `t >= 2` with `s >= 1`), whose directions the join's BSDF
+    /// values have already computed. The tests check it against the balance heuristic
+    /// computed from scratch.
     fn weight(
         &self,
         scene: &RenderScene,
@@ -632,8 +637,8 @@ impl<'a> Join<'a> {
 
 /// A surface vertex at one end of a join, in its own frame: the unit direction to the other
 /// end and the one to the previous vertex of its subpath ([`Vertex::back_local`]), the same
-/// arithmetic as [`Vertex::f`] and [`Vertex::pdf`] do, done once for the join's BSDF value
-/// and its junction densities ([`Join::weight`]).
+/// arithmetic as [`Vertex::pdf`] does, done once for the join's BSDF values and its junction
+/// densities ([`Join::weight`]).
 struct JoinEnd {
     /// Towards the other end, local.
     w: Vec3,
