@@ -8,7 +8,9 @@ reference's variance subtracted; mean squared error over the rounds, each round 
 and the ratio of `path`'s RMSE scaled to the same time
 (`RMSE_path * sqrt(t_path / t)`) over the integrator's. The RMSE is also split between the
 pixels that see a diffuse surface first and those that see the glass ball or the mirror
-(computed from the scene's geometry), where no bidirectional strategy beats the path tracer.
+(computed from the scene's geometry), where the light arrives mostly by specular-diffuse-specular
+paths that no bidirectional join makes. Per-pixel squared errors are kept in --workdir
+(sqerr_NAME.npy) for closer looks; --eye/--target/--scene measure other views.
 
     cargo build --release
     python3 benches/caustics_equal_time.py --rounds 3
@@ -18,18 +20,20 @@ kept in --workdir for later runs.
 """
 
 import argparse
+import hashlib
 import os
 import statistics
 import subprocess
 import sys
 import time
+import tomllib
 
 import numpy as np
 
 SCENE = "rooms/caustics/scene.toml"
 SIZE = 32
-# The scene's camera (rooms/caustics/scene.toml) and specular geometry.
-EYE, TARGET, FOV_DEG = (0.6, 0.03, 0.75), (0.7, 0.7, 0.12), 70.0
+# The scene's specular geometry (rooms/caustics/scene.toml and caustics.obj); the camera is read
+# from the scene file unless --eye/--target are given.
 BALL_CENTRE, BALL_RADIUS = (0.62, 0.62, 0.2), 0.2
 MIRROR_X, MIRROR_Y, MIRROR_Z = 1.19, (0.25, 0.95), (0.02, 0.7)
 ROOM = (1.2, 1.2, 1.0)
@@ -48,22 +52,30 @@ CONFIGS = {
 }
 
 
-def render(propsim, out, args, seed):
-    cmd = [propsim, "render", SCENE, "--width", str(SIZE), "--height", str(SIZE), "--seed", str(seed), *args, "-o", out]
+def scene_camera(path):
+    with open(path, "rb") as f:
+        cam = tomllib.load(f)["camera"]
+    return tuple(cam["eye"]), tuple(cam["target"]), float(cam["fov_deg"])
+
+
+def render(propsim, scene, view, out, args, seed):
+    """Renders `scene` at SIZE x SIZE with seed `seed`, `view` (--eye/--target flags) and
+    `args`, into `out`; returns the wall time."""
+    cmd = [propsim, "render", scene, "--width", str(SIZE), "--height", str(SIZE), "--seed", str(seed), *view, *args, "-o", out]
     start = time.perf_counter()
     subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     return time.perf_counter() - start
 
 
-def specular_mask():
+def specular_mask(eye, target, fov_deg):
     """Pixels whose camera ray meets the ball or the mirror before a wall (dilated by one)."""
-    eye = np.array(EYE)
-    f = np.array(TARGET) - eye
+    eye = np.array(eye)
+    f = np.array(target) - eye
     f /= np.linalg.norm(f)
     r = np.cross(f, [0.0, 0.0, 1.0])
     r /= np.linalg.norm(r)
     u = np.cross(r, f)
-    th = np.tan(np.radians(FOV_DEG) / 2)
+    th = np.tan(np.radians(fov_deg) / 2)
     c = np.array(BALL_CENTRE)
     m = np.zeros((SIZE, SIZE), bool)
     for y in range(SIZE):
@@ -102,19 +114,33 @@ def main():
     ap.add_argument("--ref-seeds", type=int, default=8)
     ap.add_argument("--ref-spp", type=int, default=32768, help="samples per pixel of each reference seed")
     ap.add_argument("--only", default="", help="comma-separated integrators to run besides path (default: all)")
+    ap.add_argument("--eye", default="", help="camera position X,Y,Z (default: the scene's)")
+    ap.add_argument("--target", default="", help="camera target X,Y,Z (default: the scene's)")
+    ap.add_argument("--scene", default=SCENE, help="scene file (its camera is the default view)")
     a = ap.parse_args()
+    eye, target, fov_deg = scene_camera(a.scene)
+    view = []
+    if a.eye:
+        eye = tuple(float(v) for v in a.eye.split(","))
+        view += ["--eye", a.eye]
+    if a.target:
+        target = tuple(float(v) for v in a.target.split(","))
+        view += ["--target", a.target]
     os.makedirs(a.workdir, exist_ok=True)
+    # The references are kept per scene text and view, so an edited scene renders new ones.
+    with open(a.scene, "rb") as f:
+        view_key = hashlib.sha256(f.read() + repr(view).encode()).hexdigest()[:10]
     refs = []
     for k in range(a.ref_seeds):
-        out = os.path.join(a.workdir, f"ref_{a.ref_spp}_{101 + k}.npy")
+        out = os.path.join(a.workdir, f"ref_{view_key}_{a.ref_spp}_{101 + k}.npy")
         if not os.path.exists(out):
             print(f"reference seed {101 + k} ({a.ref_spp} spp)...", file=sys.stderr)
-            render(a.propsim, out, ["--spp", str(a.ref_spp)], 101 + k)
+            render(a.propsim, a.scene, view, out, ["--spp", str(a.ref_spp)], 101 + k)
         refs.append(np.load(out))
     refs = np.array(refs)
     ref = refs.mean(0)
     ref_var = refs.var(0, ddof=1).mean(2) / len(refs)  # per pixel, of the reference's mean
-    mask = specular_mask()
+    mask = specular_mask(eye, target, fov_deg)
     configs = {n: c for n, c in CONFIGS.items() if n == "path" or not a.only or n in a.only.split(",")}
     times = {n: [] for n in configs}
     err = {n: np.zeros_like(ref_var) for n in configs}
@@ -124,8 +150,10 @@ def main():
     for k in range(a.rounds):
         for n, args in configs.items():
             out = os.path.join(a.workdir, f"{n}.npy")
-            times[n].append(render(a.propsim, out, args, k + 1))
+            times[n].append(render(a.propsim, a.scene, view, out, args, k + 1))
             err[n] += (((np.load(out) - ref) ** 2).mean(2) - ref_var) / a.rounds
+    for n, e2 in err.items():
+        np.save(os.path.join(a.workdir, f"sqerr_{n}.npy"), e2)  # per pixel, for closer looks
     t_path = statistics.median(times["path"])
     share = err["path"][mask].sum() / err["path"].sum()
     print(f"reference: {len(refs)} x {a.ref_spp} spp, its own RMSE {np.sqrt(ref_var.mean()):.4f}; "

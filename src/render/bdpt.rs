@@ -316,6 +316,25 @@ pub(super) const SPECULAR_SPLIT: u32 = 4;
 /// Dirac bounces at which [`specular_emission`] follows both the reflected and the refracted
 /// ray (each weighted by its Fresnel factor) rather than choosing one; deeper, it chooses.
 const BRANCH_BOUNCES: u32 = 3;
+/// Directions [`specular_emission`] samples, under [`Split::WithSds`], at each non-Dirac
+/// surface its Dirac chains from the camera reach, looking for a Dirac chain to an emitter.
+const SDS_SAMPLES: u32 = 4;
+
+/// Which light a pixel takes apart from the joins, and so leaves out of them. A choice made
+/// per pixel from the geometry ([`splits_pixel`]), never from the samples, so the sum of the
+/// two estimates stays unbiased.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Split {
+    /// Nothing: every path is the joins'.
+    Off,
+    /// Emitters seen by way of Dirac bounces alone, `E S..S L` (`bdpt`, `vcm`, `sppm`).
+    Specular,
+    /// Those, and the specular-diffuse-specular paths `E S..S D S..S L` with one non-Dirac
+    /// vertex between Dirac chains, such as a caustic seen through glass (`bdpt`: no join
+    /// makes these paths, so the camera subpath's hit of the emitter has MIS weight 1 and
+    /// may move here unchanged; `vcm` merges them and keeps them).
+    WithSds,
+}
 
 /// Whether pixel `(x, y)` shows a Dirac surface (mirror, glass) or an emitter at any of 3 x 3
 /// fixed points in it, through the lens centre: such pixels are split ([`specular_emission`]).
@@ -339,13 +358,15 @@ pub(super) fn splits_pixel(scene: &RenderScene, camera: &Camera, s: &RenderSetti
 /// reflection (a few per cent): a split pixel takes these paths here, at the cost of a few
 /// rays, rather than once a sample at the cost of a whole bidirectional sample, and leaves
 /// them out of the joins ([`connect_all`]); the pixel's estimate is the sum, unbiased.
+/// Under [`Split::WithSds`], each non-Dirac surface these rays reach after a Dirac bounce also
+/// sends [`SDS_SAMPLES`] BSDF-sampled rays on, which count an emitter only at the end of a
+/// Dirac chain (`E S..S D S..S L`, [`sds_emission`]).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn specular_emission<R: Uniforms>(
     scene: &RenderScene,
     camera: &Camera,
     s: &RenderSettings,
-    x: u32,
-    y: u32,
+    (x, y, split): (u32, u32, Split),
     rng: &mut R,
     rays: &mut u64,
 ) -> Vec3 {
@@ -369,11 +390,17 @@ pub(super) fn specular_emission<R: Uniforms>(
                 sum += beta * scene.lights.lights[l].le_towards(hit.normal, -ray.dir);
             }
             let bsdf = scene.surfaces[hit.surface as usize].bsdf;
-            if !bsdf.is_delta() || bounce == s.max_depth {
+            if bounce == s.max_depth {
                 continue;
             }
             let frame = Frame::new(hit.normal);
             let wo = frame.to_local(-ray.dir);
+            if !bsdf.is_delta() {
+                if split == Split::WithSds && bounce > 0 {
+                    sum += sds_emission(scene, s.max_depth, (&hit, frame, wo), beta, bounce + 1, rng, rays);
+                }
+                continue;
+            }
             let (u, uc) = (rng.next_2d(), rng.next_1d());
             let mut follow = |bs: BsdfSample, beta: Vec3| {
                 if beta != Vec3::ZERO && beta.is_finite() && len < stack.len() {
@@ -394,6 +421,64 @@ pub(super) fn specular_emission<R: Uniforms>(
         }
     }
     sum / SPECULAR_SPLIT as f32
+}
+
+/// The light reaching non-Dirac surface point `hit` (its `bounces`-th bounce from the camera,
+/// with throughput `beta`, after Dirac bounces only) by paths that no join can make: every
+/// non-Dirac vertex between Dirac ones, `D S..S (D S..S)* L`, such as a caustic seen
+/// through glass or in a mirror. The mean over [`SDS_SAMPLES`] BSDF-sampled directions from
+/// `hit`, each a walk that samples one direction at each later non-Dirac vertex, chooses a
+/// glass lobe by its Fresnel share, stops when a non-Dirac vertex follows another (the joins
+/// take that path) or at `max_depth` bounces, and counts an emitter met after a Dirac bounce.
+fn sds_emission<R: Uniforms>(
+    scene: &RenderScene,
+    max_depth: u32,
+    (hit, frame, wo): (&Hit, Frame, Vec3),
+    beta: Vec3,
+    bounces: u32,
+    rng: &mut R,
+    rays: &mut u64,
+) -> Vec3 {
+    // Russian roulette on the throughput: a faint branch (a Fresnel reflection off glass)
+    // rarely pays for its walks.
+    let q = beta.max_element().min(1.0);
+    if rng.next_1d() >= q {
+        return Vec3::ZERO;
+    }
+    let beta = beta / q;
+    let bsdf = scene.surfaces[hit.surface as usize].bsdf;
+    let mut sum = Vec3::ZERO;
+    for _ in 0..SDS_SAMPLES {
+        let Some(bs) = bsdf.sample(wo, rng.next_2d(), rng.next_1d()) else { continue };
+        let mut beta = beta * bs.weight();
+        let mut ray = Ray::spawn(hit.point, hit.normal, frame.to_world(bs.wi));
+        // Bounces of the path so far, and whether the last one was Dirac.
+        let (mut depth, mut after_dirac) = (bounces, false);
+        while beta != Vec3::ZERO && beta.is_finite() {
+            *rays += 1;
+            let Some(next) = scene.intersect(&ray) else { break };
+            let next_bsdf = scene.surfaces[next.surface as usize].bsdf;
+            if !after_dirac && !next_bsdf.is_delta() {
+                break;
+            }
+            if after_dirac && let Some(l) = scene.light_of(&next) {
+                sum += beta * scene.lights.lights[l].le_towards(next.normal, -ray.dir);
+            }
+            if depth == max_depth {
+                break;
+            }
+            let next_frame = Frame::new(next.normal);
+            let Some(bs) = next_bsdf.sample(next_frame.to_local(-ray.dir), rng.next_2d(), rng.next_1d())
+            else {
+                break;
+            };
+            beta *= bs.weight();
+            depth += 1;
+            after_dirac = next_bsdf.is_delta();
+            ray = Ray::spawn(next.point, next.normal, next_frame.to_world(bs.wi));
+        }
+    }
+    sum / SDS_SAMPLES as f32
 }
 
 /// The light subpath: a light chosen by power, a point and cosine-weighted direction on it,
@@ -702,7 +787,7 @@ fn sample(
     scene: &RenderScene,
     camera_model: &Camera,
     s: &RenderSettings,
-    (x, y, split): (u32, u32, bool),
+    (x, y, split): (u32, u32, Split),
     rng: &mut Rng64,
     paths: &mut (Vec<Vertex>, Vec<Vertex>),
     splats: &mut HeldSplats,
@@ -715,16 +800,16 @@ fn sample(
     let mut l = camera_subpath(scene, camera_model, fp, lens, s.max_depth as usize + 2, rng, camera, rays);
     light_subpath(scene, s.max_depth, rng, light, rays);
     l += connect_all(scene, camera_model, s.max_depth, light, camera, 0.0, split, rng, splats, rays);
-    if split {
-        l += specular_emission(scene, camera_model, s, x, y, rng, rays);
+    if split != Split::Off {
+        l += specular_emission(scene, camera_model, s, (x, y, split), rng, rays);
     }
     l
 }
 
 /// Every join of `light` and `camera` of at most `max_depth` bounces, weighted by MIS (with
 /// merging strategies counted when `eta > 0`): the radiance of the strategies with `t >= 2`;
-/// the `t = 1` ones are held in `splats` for the light image. With `split`, emitters the camera subpath reaches
-/// by Dirac bounces alone are left out ([`specular_emission`] takes them).
+/// the `t = 1` ones are held in `splats` for the light image. The camera subpath's hits of
+/// emitters that `split` takes apart are left out ([`specular_emission`] takes them).
 #[allow(clippy::too_many_arguments)]
 pub(super) fn connect_all<R: Uniforms>(
     scene: &RenderScene,
@@ -733,21 +818,34 @@ pub(super) fn connect_all<R: Uniforms>(
     light: &[Vertex],
     camera: &[Vertex],
     eta: f32,
-    split: bool,
+    split: Split,
     rng: &mut R,
     splats: &mut HeldSplats,
     rays: &mut u64,
 ) -> Vec3 {
     let mut l = Vec3::ZERO;
-    // Camera vertices up to which every bounce was Dirac.
+    // Camera vertices up to which every bounce was Dirac (vertex `specular_prefix` is the first
+    // non-Dirac one), and up to which no non-Dirac vertex followed another, the first being
+    // Dirac (vertex `sds_end`).
     let specular_prefix = 1 + camera.iter().skip(1).take_while(|v| v.delta).count();
+    let sds_end = match camera.get(1) {
+        Some(v) if v.delta => 1 + camera[1..].windows(2).take_while(|p| p[0].delta || p[1].delta).count(),
+        _ => 0,
+    };
+    // The emitter hits split off: reached by Dirac bounces alone (`t - 1 <= specular_prefix`),
+    // or (WithSds) by a path that no join makes, its vertex before the emitter Dirac.
+    let split_off = |t: usize| match split {
+        Split::Off => false,
+        Split::Specular => t <= specular_prefix + 1,
+        Split::WithSds => t <= specular_prefix + 1 || (t - 2 <= sds_end && camera[t - 2].delta),
+    };
     for t in 1..=camera.len() {
         for si in 0..=light.len() {
             let depth = (si + t) as i64 - 2;
             if (si == 1 && t == 1) || depth < 0 || depth > i64::from(max_depth) {
                 continue;
             }
-            if split && si == 0 && t <= specular_prefix + 1 {
+            if si == 0 && split_off(t) {
                 // Still draw the numbers, so a pixel's stream does not depend on the split.
                 rng.next_2d();
                 continue;
@@ -935,7 +1033,11 @@ pub fn render_on(
                 for y in y0..y1 {
                     for x in x0..x1 {
                         let (mut rng, _) = super::pixel_stream(settings, x, y);
-                        let split = splits_pixel(scene, camera, settings, x, y);
+                        let split = if splits_pixel(scene, camera, settings, x, y) {
+                            Split::WithSds
+                        } else {
+                            Split::Off
+                        };
                         let mut sum = Vec3::ZERO;
                         for _ in 0..settings.spp {
                             let l = sample(

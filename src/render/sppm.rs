@@ -45,7 +45,7 @@ use std::time::Instant;
 use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
-use super::bdpt::{specular_emission, splits_pixel};
+use super::bdpt::{Split, specular_emission, splits_pixel};
 use super::light::importance_weight;
 use super::path::{RR_START_DEPTH, Vertex, emitted, sample_direct};
 use super::photon_grid::PhotonGrid;
@@ -458,7 +458,8 @@ pub fn render_on(
                 if split[i] {
                     let mut rng =
                         stream(settings.seed, SPLIT_DOMAIN, u64::from(it) * pixels as u64 + i as u64);
-                    ld += specular_emission(scene, camera, settings, x, y, &mut rng, &mut r);
+                    ld +=
+                        specular_emission(scene, camera, settings, (x, y, Split::Specular), &mut rng, &mut r);
                 }
                 (ld, vp, r)
             })

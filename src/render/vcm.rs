@@ -34,7 +34,7 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bdpt::{
-    HELD_SPLATS, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
+    HELD_SPLATS, Split, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
     specular_emission, splits_pixel,
 };
 use super::point_grid::PointGrid;
@@ -182,7 +182,7 @@ fn sample(
     scene: &RenderScene,
     camera_model: &Camera,
     s: &RenderSettings,
-    (x, y, split): (u32, u32, bool),
+    (x, y, split): (u32, u32, Split),
     iteration: &Iteration,
     rng: &mut Rng64,
     camera: &mut Vec<Vertex>,
@@ -224,8 +224,8 @@ fn sample(
         });
         l += z.beta * merged * iteration.norm;
     }
-    if split {
-        l += specular_emission(scene, camera_model, s, x, y, rng, rays);
+    if split != Split::Off {
+        l += specular_emission(scene, camera_model, s, (x, y, split), rng, rays);
     }
     l
 }
@@ -248,9 +248,12 @@ pub fn render_on(
     let min_len = (mine.len() / (8 * rayon::current_num_threads())).max(1);
     let mut sums = vec![Vec3::ZERO; pixels];
     // Which pixels split off the light seen through mirrors and glass (a fixed choice).
-    let split: Vec<bool> = (0..pixels)
+    let split: Vec<Split> = (0..pixels)
         .into_par_iter()
-        .map(|i| splits_pixel(scene, camera, settings, i as u32 % w, i as u32 / w))
+        .map(|i| {
+            let splits = splits_pixel(scene, camera, settings, i as u32 % w, i as u32 / w);
+            if splits { Split::Specular } else { Split::Off }
+        })
         .collect();
     let films: Vec<Mutex<SplatFilm>> =
         (0..rayon::current_num_threads().max(1)).map(|_| Mutex::new(SplatFilm::new(w, h))).collect();
