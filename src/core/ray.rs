@@ -57,7 +57,13 @@ impl Ray {
     pub fn between(x: Vec3, n: Vec3, y: Vec3, m: Vec3) -> Self {
         // The sides by the unit direction, as the eight-lane path tracer computes it.
         let to = y - x;
-        let w = to / to.length();
+        Self::between_along(x, n, y, m, to / to.length())
+    }
+
+    /// [`Self::between`] for a caller that has already computed the unit direction
+    /// `w = (y - x) / |y - x|` (the same arithmetic gives the same segment, bit for bit).
+    #[inline]
+    pub fn between_along(x: Vec3, n: Vec3, y: Vec3, m: Vec3, w: Vec3) -> Self {
         let from = offset_origin(x, n, w);
         let to = offset_origin(y, m, -w);
         let d = to - from;

@@ -980,7 +980,18 @@ pub(super) fn connect(
         }
         let wn = d / d2.sqrt();
         l *= qs.n.dot(wn).abs() * pt.n.dot(wn).abs() / d2;
-        if l == Vec3::ZERO || blocked(scene, pt, qs, rays) {
+        if l == Vec3::ZERO {
+            return None;
+        }
+        // blocked(), with the unit direction `wn` already at hand (`d / |d|`, as Ray::between
+        // computes it).
+        *rays += 1;
+        let segment = if pt.on_surface() && qs.on_surface() {
+            Ray::between_along(pt.p, pt.n, qs.p, qs.n, wn)
+        } else {
+            Ray::spawn_to(pt.p, pt.n, qs.p)
+        };
+        if scene.accel.occluded(&segment) {
             return None;
         }
         qe = Some(JoinEnd::new(qs, qw));
