@@ -41,6 +41,8 @@ ROOM = (1.2, 1.2, 1.0)
 CONFIGS = {
     "path": ["--spp", "2048"],
     "bdpt": ["--spp", "256", "--integrator", "bdpt"],
+    # ... and at about path's time, without the time scaling.
+    "bdpt_512": ["--spp", "512", "--integrator", "bdpt"],
     # sppm at its default radius, at about path's time (256 x 16,000 photons) and at about half
     # of it (256 x 8,000), and the earlier 1,024 x 3,000 at 5 cm (docs/render.md says why
     # fewer, larger iterations win here).
