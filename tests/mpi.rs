@@ -245,6 +245,8 @@ fn mpi_radiosity_fields_fog_prism_and_bent_rays_are_byte_identical_for_1_2_and_3
         ("smoke-volpath", "rooms/smoke/scene.toml", "volpath", &[][..]),
         ("smoke-raymarch", "rooms/smoke/scene.toml", "raymarch", &[][..]),
         ("caustics-vcm", "rooms/caustics/scene.toml", "vcm", &[][..]),
+        // bdpt's split pixels (the ball and the mirror) with their walks for paths no join makes.
+        ("caustics-bdpt", "rooms/caustics/scene.toml", "bdpt", &[][..]),
     ] {
         let scene = format!("{MANIFEST_DIR}/{scene}");
         let mut args = vec!["render", &scene, "--integrator", integrator, "-o", "out/render.exr"];
