@@ -862,9 +862,6 @@ pub(super) fn connect_all<R: Uniforms>(
     l
 }
 
-/// Light-image splats a worker holds back ([`HeldSplats`]) before adding them to its film.
-pub(super) const HELD_SPLATS: usize = 64;
-
 /// The camera subpath through film point `fp` and lens point `lens` (both in [0,1)^2), at most
 /// `max_vertices` vertices with the lens point; returns the background radiance it picks up
 /// if it escapes the scene.
@@ -1064,9 +1061,7 @@ pub fn render_on(
                             if l.is_finite() {
                                 sum += l;
                             }
-                            if held.len() >= HELD_SPLATS {
-                                held.add_to(&mut film);
-                            }
+                            held.add_to_when_full(&mut film);
                         }
                         px.push(sum / settings.spp as f32);
                     }

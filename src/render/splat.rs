@@ -70,6 +70,9 @@ impl SplatFilm {
     }
 }
 
+/// Splats a [`HeldSplats`] holds before it adds them to its film.
+const HELD_SPLATS: usize = 64;
+
 /// Splats held back, then added to a [`SplatFilm`] in one run ([`HeldSplats::add_to`]): they
 /// land on scattered pixels, mostly out of cache, and added one at a time between rays each
 /// waits for memory, while in a run the accesses overlap. The sums are exact, so holding
@@ -88,16 +91,13 @@ impl HeldSplats {
         self.held.push((film, value));
     }
 
-    /// How many are held.
+    /// Adds the held splats to `film` once [`HELD_SPLATS`] or more are held (callers check
+    /// after each sample, and call [`Self::add_to`] at the end of their work).
     #[inline]
-    pub fn len(&self) -> usize {
-        self.held.len()
-    }
-
-    /// Whether none is held.
-    #[inline]
-    pub fn is_empty(&self) -> bool {
-        self.held.is_empty()
+    pub fn add_to_when_full(&mut self, film: &mut SplatFilm) {
+        if self.held.len() >= HELD_SPLATS {
+            self.add_to(film);
+        }
     }
 
     /// Adds every held splat to `film` (as [`SplatFilm::add`] does) and lets them go: first

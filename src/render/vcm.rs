@@ -34,8 +34,8 @@ use glam::{Vec2, Vec3};
 use rayon::prelude::*;
 
 use super::bdpt::{
-    HELD_SPLATS, Split, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight,
-    specular_emission, splits_pixel,
+    Split, Vertex, VertexKind, camera_subpath, connect_all, light_subpath, merge_weight, specular_emission,
+    splits_pixel,
 };
 use super::point_grid::PointGrid;
 use super::splat::{HeldSplats, SplatFilm, finish};
@@ -307,9 +307,7 @@ pub fn render_on(
                             &mut held,
                             &mut rays,
                         );
-                        if held.len() >= HELD_SPLATS {
-                            held.add_to(&mut film);
-                        }
+                        held.add_to_when_full(&mut film);
                         if l.is_finite() { l } else { Vec3::ZERO }
                     })
                     .collect();
